@@ -1,0 +1,1 @@
+"""rtlab application: CLI, frame loop, viewer, headless runner, benchmark and report."""

@@ -1,0 +1,71 @@
+"""The one place that creates GL contexts and loads shaders.
+
+Headless (EGL) for shot, bench and tests; the viewer wraps its GLFW window's context.
+The rendering code is the same for both.
+"""
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+from pathlib import Path
+
+from app.errors import UserError
+
+SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders"
+INCLUDE = re.compile(r'^#include "([^"]+)"\s*$', re.MULTILINE)
+
+
+def create_headless_context():
+    import moderngl
+
+    try:
+        return moderngl.create_standalone_context(backend="egl", require=430)
+    except Exception as e:  # noqa: BLE001 - driver errors come in many types
+        raise UserError(f"cannot create a headless OpenGL 4.3 context through EGL ({e}); "
+                        "install Mesa's EGL (apt-get install libegl1 libgl1-mesa-dri)") from None
+
+
+def wrap_current_context():
+    """The viewer's window context (created by GLFW and made current)."""
+    import moderngl
+
+    return moderngl.create_context(require=430)
+
+
+@lru_cache(maxsize=None)
+def shader_source(name: str) -> str:
+    path = SHADER_DIR / name
+    text = path.read_text()
+    return INCLUDE.sub(lambda m: shader_source(m.group(1)), text)
+
+
+def program(ctx, vertex: str, fragment: str | None = None):
+    """Compile a program from files in shaders/ (with #include), cached per context."""
+    cache = ctx.extra if isinstance(ctx.extra, dict) else {}
+    ctx.extra = cache
+    key = ("program", vertex, fragment)
+    if key not in cache:
+        cache[key] = ctx.program(vertex_shader=shader_source(vertex),
+                                 fragment_shader=shader_source(fragment) if fragment else None)
+    return cache[key]
+
+
+def fullscreen(ctx, fragment: str):
+    """A program + empty vertex array drawing one screen-covering triangle."""
+    cache = ctx.extra if isinstance(ctx.extra, dict) else {}
+    ctx.extra = cache
+    key = ("fullscreen", fragment)
+    if key not in cache:
+        prog = program(ctx, "fullscreen.vert", fragment)
+        cache[key] = (prog, ctx.vertex_array(prog, []))
+    return cache[key]
+
+
+def set_uniform(prog, name: str, value) -> None:
+    """Set a uniform if the compiler kept it (unused uniforms are optimised away)."""
+    if name in prog:
+        member = prog[name]
+        if hasattr(value, "tobytes") and not isinstance(value, (int, float)):
+            member.write(value.astype("f4").tobytes() if value.dtype.kind == "f" else value.tobytes())
+        else:
+            member.value = value

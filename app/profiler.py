@@ -1,0 +1,57 @@
+"""Per-pass timing shared by every pass: GPU time for raster, CPU time for ray tracing."""
+from __future__ import annotations
+
+import time
+from collections import defaultdict, deque
+from contextlib import contextmanager
+
+
+class Profiler:
+    def __init__(self, history: int = 120):
+        self.history = history
+        self.samples: dict[str, deque] = defaultdict(lambda: deque(maxlen=self.history))
+        self.kind: dict[str, str] = {}
+        self.frame: dict[str, float] = {}
+        self._queries: dict = {}
+        self.counters: dict[str, float] = {}
+
+    def record(self, name: str, ms: float, kind: str = "cpu") -> None:
+        self.samples[name].append(ms)
+        self.kind[name] = kind
+        self.frame[name] = self.frame.get(name, 0.0) + ms
+
+    @contextmanager
+    def cpu(self, name: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.record(name, (time.perf_counter() - t0) * 1e3, "cpu")
+
+    @contextmanager
+    def gpu(self, ctx, name: str):
+        """GPU time of the GL commands issued inside (a timer query; waits for the result)."""
+        q = self._queries.get((id(ctx), name))
+        if q is None:
+            q = self._queries[(id(ctx), name)] = ctx.query(time=True)
+        with q:
+            yield
+        self.record(name, q.elapsed / 1e6, "gpu")
+
+    def begin_frame(self) -> None:
+        self.frame = {}
+        self.counters = {}
+
+    def count(self, name: str, n: float) -> None:
+        self.counters[name] = self.counters.get(name, 0) + n
+
+    def last(self, name: str) -> float:
+        s = self.samples.get(name)
+        return s[-1] if s else 0.0
+
+    def average(self, name: str) -> float:
+        s = self.samples.get(name)
+        return sum(s) / len(s) if s else 0.0
+
+    def names(self) -> list[str]:
+        return list(self.samples)

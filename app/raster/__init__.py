@@ -1,0 +1,1 @@
+"""Raster passes on ModernGL: G-buffer, shadow maps, SSAO, forward lighting, tone mapping."""

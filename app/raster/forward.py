@@ -1,0 +1,90 @@
+"""Forward lighting pass: re-rasterises the scene against the G-buffer's depth (a depth
+pre-pass), lights every fragment with all lights, shadow maps, SSAO and env reflections."""
+from __future__ import annotations
+
+import numpy as np
+
+from app.gl_context import fullscreen, set_uniform
+from app.raster.gpu_scene import ENV_KIND
+from app.raster.lights import pack
+from app.raster.targets import Targets
+
+
+class ForwardLightingPass:
+    name = "forward_lighting"
+    reads = ("depth", "ssao", "sun_shadow", "point_shadow")
+    writes = ("radiance",)
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.targets = Targets(ctx, {"radiance": (4, "f4")})
+        self.ubo = ctx.buffer(reserve=128 * 64)
+        self.dummy_ao = ctx.texture((1, 1), 1, np.ones(1, "f4").tobytes(), dtype="f4")
+
+    def reset(self) -> None:
+        pass
+
+    def execute(self, frame, lights, shadow_info) -> None:
+        opts = frame.options.group("forward")
+        ctx = self.ctx
+        t = self.targets.ensure(frame.width, frame.height, shared_depth=frame.channels["depth"])
+        prog, vao = frame.gpu.vao("geometry.vert", "forward.frag")
+        env = frame.environment
+        cube, lut = frame.gpu.environment_maps(env)
+        with frame.profiler.gpu(ctx, "forward_lighting"):
+            t.fbo.depth_mask = False  # the pre-pass depth stays; equal depths pass "<="
+            t.fbo.use()
+            t.fbo.viewport = (0, 0, frame.width, frame.height)
+            t.fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self._background(frame, env)
+            ctx.enable(ctx.DEPTH_TEST)
+            ctx.depth_func = "<="
+            unit = frame.gpu.bind_materials(prog)
+            self.ubo.write(pack(lights))
+            if "Lights" in prog:
+                prog["Lights"].binding = 0
+            self.ubo.bind_to_uniform_block(0)
+            set_uniform(prog, "light_count", len(lights))
+            set_uniform(prog, "view_proj", frame.view_proj().T.astype(np.float32))
+            set_uniform(prog, "prev_view_proj", frame.view_proj(frame.prev_camera).T.astype(np.float32))
+            set_uniform(prog, "eye", tuple(map(float, frame.camera.eye)))
+            set_uniform(prog, "viewport", (float(frame.width), float(frame.height)))
+            set_uniform(prog, "env_kind", ENV_KIND[env.kind])
+            set_uniform(prog, "env_color", tuple(map(float, env.color)))
+            set_uniform(prog, "env_strength", float(env.strength))
+            set_uniform(prog, "ambient_radiance", tuple(map(float, frame.scene.ambient)))
+            set_uniform(prog, "ambient_scale", float(opts.ambient))
+            textures = {"ambient_lut": lut, "env_cube": cube,
+                        "ssao": frame.channels.get("ssao") if opts.ssao else self.dummy_ao,
+                        "sun_shadow": frame.channels["sun_shadow"], "point_shadow": frame.channels["point_shadow"]}
+            for name, tex in textures.items():
+                tex.use(unit)
+                set_uniform(prog, name, unit)
+                unit += 1
+            set_uniform(prog, "use_ssao", int(opts.ssao))
+            set_uniform(prog, "use_env_reflections", int(opts.env_reflections))
+            set_uniform(prog, "roughness_threshold", float(opts.roughness_threshold))
+            set_uniform(prog, "use_shadows", int(opts.shadow_maps))
+            set_uniform(prog, "sun_view_proj", shadow_info["sun_view_proj"].T.astype(np.float32))
+            set_uniform(prog, "sun_slot", int(shadow_info["sun_slot"]))
+            set_uniform(prog, "sun_texel", float(shadow_info["sun_texel"]))
+            set_uniform(prog, "point_shadow_rows", int(shadow_info["rows"]))
+            set_uniform(prog, "pcf_radius", int(opts.pcf_radius))
+            vao.render()
+            ctx.depth_func = "<"
+            ctx.disable(ctx.DEPTH_TEST)
+        frame.channels["radiance"] = t["radiance"]
+
+    def _background(self, frame, env) -> None:
+        prog, vao = fullscreen(self.ctx, "background.frag")
+        set_uniform(prog, "inv_view_proj", np.linalg.inv(frame.view_proj()).T.astype(np.float32))
+        set_uniform(prog, "eye", tuple(map(float, frame.camera.eye)))
+        set_uniform(prog, "env_kind", ENV_KIND[env.kind])
+        set_uniform(prog, "env_color", tuple(map(float, env.color)))
+        set_uniform(prog, "env_strength", float(env.strength))
+        vao.render(vertices=3)
+
+    def release(self) -> None:
+        self.targets.release()
+        self.ubo.release()
+        self.dummy_ao.release()

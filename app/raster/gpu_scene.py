@@ -1,0 +1,188 @@
+"""The scene's GPU copy: vertex buffers, per-triangle material ids, the material table,
+base-colour textures as one array, the environment cube map and the light list."""
+from __future__ import annotations
+
+import numpy as np
+
+from app.gl_context import program
+from scenes.model import Environment, Scene
+
+MAT_TEXELS = 3
+TRI_TEX_WIDTH = 4096
+MAX_LIGHTS = 128
+KIND = {"point": 0, "spot": 1, "directional": 2, "proxy": 3}
+ENV_KIND = {"black": 0, "sky": 1, "constant": 2}
+
+# GL cube map face directions for texel coordinates sc, tc in [-1, 1]
+CUBE_FACES = (
+    lambda s, t: (np.ones_like(s), -t, -s),
+    lambda s, t: (-np.ones_like(s), -t, s),
+    lambda s, t: (s, np.ones_like(s), t),
+    lambda s, t: (s, -np.ones_like(s), -t),
+    lambda s, t: (s, -t, np.ones_like(s)),
+    lambda s, t: (-s, -t, -np.ones_like(s)),
+)
+
+
+def emissive_proxy_lights(scene: Scene, cells: int = 24) -> list[dict]:
+    """Emissive triangles grouped on a coarse grid into point lights, the way engines
+    approximate area emitters. Each proxy: position, normal, intensity I0 (W/sr) and flatness.
+
+    A flat emitter of area A and radiance Le has I(w) = Le A cos; a closed one (a bulb) has
+    I = Le A / 4 in every direction; flatness = |sum A n| / sum A blends the two.
+    """
+    tris = scene.emissive_triangles()
+    if tris.size == 0:
+        return []
+    p = scene.positions[scene.indices[tris]].astype(np.float64)
+    centre = p.mean(axis=1)
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    normal = cross / np.maximum(2 * area, 1e-20)[:, None]
+    le = np.array([scene.materials[m].emissive for m in scene.material_ids[tris]], np.float64)
+    lo, hi = scene.bounds()
+    size = max(float(np.max(hi - lo)) / cells, 1e-6)
+    key = np.floor((centre - lo) / size).astype(np.int64)
+    key = (key[:, 0] * cells * 4 + key[:, 1]) * cells * 4 + key[:, 2]
+    key = key * 4096 + scene.material_ids[tris]  # never merge different materials
+    uniq, inv = np.unique(key, return_inverse=True)
+    out = []
+    for g in range(uniq.size):
+        sel = inv == g
+        a = area[sel]
+        total = a.sum()
+        if total <= 0:
+            continue
+        pos = (centre[sel] * a[:, None]).sum(0) / total
+        nsum = (normal[sel] * a[:, None]).sum(0)
+        flat = float(np.linalg.norm(nsum) / total)
+        nrm = nsum / max(np.linalg.norm(nsum), 1e-20)
+        power = (le[sel] * a[:, None]).sum(0)  # sum Le A per channel
+        i0 = power * (flat + (1 - flat) / 4)
+        out.append({"position": pos, "normal": nrm, "intensity": i0, "flatness": flat})
+    return out
+
+
+def ambient_lut(env: Environment, size: int = 64) -> np.ndarray:
+    """Irradiance / pi of the environment on a surface with normal.y = -1..1 (no occlusion)."""
+    rng = np.random.default_rng(0)
+    u1, u2 = rng.random(4096), rng.random(4096)
+    r, phi = np.sqrt(u1), 2 * np.pi * u2
+    local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1 - u1)], 1)  # cosine-weighted about +z
+    out = np.zeros((size, 3), np.float32)
+    for k, ny in enumerate(np.linspace(-1, 1, size)):
+        n = np.array([np.sqrt(max(0.0, 1 - ny * ny)), ny, 0.0])
+        t = np.cross(n, [0.0, 0.0, 1.0])
+        t /= np.linalg.norm(t)
+        b = np.cross(n, t)
+        dirs = local[:, :1] * t + local[:, 1:2] * b + local[:, 2:3] * n
+        out[k] = env.radiance(dirs.astype(np.float32)).mean(0)  # E/pi = mean radiance (cosine-weighted)
+    return out
+
+
+class GpuScene:
+    def __init__(self, ctx, scene: Scene):
+        self.ctx = ctx
+        self.scene = scene
+        self.vbo_pos = ctx.buffer(scene.positions.astype("f4").tobytes())
+        self.vbo_nrm = ctx.buffer(scene.normals.astype("f4").tobytes())
+        self.vbo_uv = ctx.buffer(scene.uvs.astype("f4").tobytes())
+        self.ibo = ctx.buffer(scene.indices.astype("i4").tobytes())
+        t = scene.triangle_count
+        rows = (t + TRI_TEX_WIDTH - 1) // TRI_TEX_WIDTH
+        ids = np.zeros(rows * TRI_TEX_WIDTH, np.int32)
+        ids[:t] = scene.material_ids
+        self.tri_materials = ctx.texture((TRI_TEX_WIDTH, rows), 1, ids.tobytes(), dtype="i4")
+        self.tri_materials.filter = (ctx.NEAREST, ctx.NEAREST)
+        self._upload_materials()
+        self._vaos: dict = {}
+        self.env_key = None
+        self.env_cube = None
+        self.ambient_lut = None
+        self.proxies = emissive_proxy_lights(scene)
+
+    def _upload_materials(self) -> None:
+        ctx, mats = self.ctx, self.scene.materials
+        textured = [m for m in mats if m.texture is not None]
+        size = 1
+        for m in textured:
+            size = max(size, m.texture.shape[0], m.texture.shape[1])
+        size = int(min(1024, 2 ** int(np.ceil(np.log2(size))))) if textured else 1
+        layers = np.zeros((max(len(textured), 1), size, size, 4), np.float32)
+        table = np.zeros((len(mats) * MAT_TEXELS, 4), np.float32)
+        layer = 0
+        for k, m in enumerate(mats):
+            tex_layer = -1.0
+            if m.texture is not None:
+                h, w = m.texture.shape[:2]
+                yi = (np.arange(size) * h // size)[:, None]
+                xi = (np.arange(size) * w // size)[None, :]
+                layers[layer, :, :, :3] = m.texture[yi, xi, :3]
+                layers[layer, :, :, 3] = 1.0
+                tex_layer = float(layer)
+                layer += 1
+            table[k * MAT_TEXELS + 0] = m.base_color[:4] if len(m.base_color) >= 4 else (*m.base_color, 1.0)
+            table[k * MAT_TEXELS + 1] = (*m.emissive, tex_layer)
+            table[k * MAT_TEXELS + 2] = (m.roughness, m.metallic, float(m.double_sided), 0.0)
+        self.material_table = ctx.texture((table.shape[0], 1), 4, table.tobytes(), dtype="f4")
+        self.material_table.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers.astype("f2").tobytes(),
+                                          dtype="f2")
+        self.textures.build_mipmaps()
+        self.textures.filter = (ctx.LINEAR_MIPMAP_LINEAR, ctx.LINEAR)
+        self.textures.anisotropy = 8.0
+
+    def bind_materials(self, prog, first_unit: int = 0) -> int:
+        """Bind the material tables to units first_unit.. and return the next free unit."""
+        for k, (name, tex) in enumerate((("material_table", self.material_table),
+                                         ("triangle_materials", self.tri_materials),
+                                         ("base_textures", self.textures))):
+            tex.use(first_unit + k)
+            if name in prog:
+                prog[name].value = first_unit + k
+        return first_unit + 3
+
+    def vao(self, vertex: str, fragment: str | None, with_attributes: bool = True):
+        key = (vertex, fragment)
+        if key not in self._vaos:
+            prog = program(self.ctx, vertex, fragment)
+            content = [(self.vbo_pos, "3f", "in_position")]
+            if with_attributes:
+                if "in_normal" in prog:
+                    content.append((self.vbo_nrm, "3f", "in_normal"))
+                if "in_uv" in prog:
+                    content.append((self.vbo_uv, "2f", "in_uv"))
+            self._vaos[key] = (prog, self.ctx.vertex_array(prog, content, index_buffer=self.ibo, index_element_size=4))
+        return self._vaos[key]
+
+    def environment_maps(self, env: Environment, size: int = 64):
+        """Cube map and ambient LUT of the environment, rebuilt only when it changes."""
+        key = (env.kind, tuple(env.color), env.strength)
+        if key != self.env_key:
+            t = (np.arange(size) + 0.5) / size * 2 - 1
+            s, tc = np.meshgrid(t, t)
+            faces = []
+            for face in CUBE_FACES:
+                d = np.stack(face(s, tc), -1).reshape(-1, 3)
+                d /= np.linalg.norm(d, axis=1, keepdims=True)
+                faces.append(env.radiance(d.astype(np.float32)))
+            data = np.concatenate(faces).astype("f4")
+            if self.env_cube is not None:
+                self.env_cube.release()
+                self.ambient_lut.release()
+            self.env_cube = self.ctx.texture_cube((size, size), 3, data.tobytes(), dtype="f4")
+            self.env_cube.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            lut = ambient_lut(env)
+            self.ambient_lut = self.ctx.texture((lut.shape[0], 1), 3, lut.tobytes(), dtype="f4")
+            self.ambient_lut.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self.ambient_lut.repeat_x = False
+            self.env_key = key
+        return self.env_cube, self.ambient_lut
+
+    def release(self) -> None:
+        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.ibo, self.tri_materials, self.material_table,
+                    self.textures, self.env_cube, self.ambient_lut):
+            if obj is not None:
+                obj.release()
+        for _, vao in self._vaos.values():
+            vao.release()

@@ -1,0 +1,1 @@
+"""CPU ray tracing on Embree: tracer, sampling, hit shading and one module per pass."""

@@ -1,0 +1,38 @@
+"""Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from app.errors import UserError
+
+EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
+
+
+def load_scene(spec: str):
+    """Built-in name (optionally `name:detail`) or a path. Raises UserError with one clear line."""
+    from scenes.builtin import BUILTINS, build_builtin, is_builtin
+
+    if is_builtin(spec):
+        return build_builtin(spec)
+    path = Path(spec)
+    ext = path.suffix.lower()
+    if ext not in EXTENSIONS:
+        if not path.suffix and not path.exists():
+            raise UserError(f"unknown scene {spec!r}: not a built-in ({', '.join(BUILTINS)}) and not a file path")
+        raise UserError(f"{path.name}: unsupported file type {ext or '(none)'!r}; use {', '.join(EXTENSIONS)}")
+    if not path.exists():
+        raise UserError(f"{spec}: no such file")
+    if not path.is_file():
+        raise UserError(f"{spec}: not a file")
+    try:
+        with open(path, "rb"):
+            pass
+    except OSError as e:
+        raise UserError(f"{spec}: cannot read ({e.strerror})") from None
+    if ext in (".gltf", ".glb"):
+        from scenes.loaders.gltf import load_gltf
+
+        return load_gltf(path)
+    from scenes.loaders.meshfile import load_mesh_file
+
+    return load_mesh_file(path)

@@ -1,0 +1,50 @@
+"""Helpers shared by the file loaders."""
+from __future__ import annotations
+
+import io
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import UserError
+
+
+def safe_child(scene_file: Path, relative: str) -> Path:
+    """Resolve a path referenced by a scene file; refuse anything outside the scene's folder."""
+    folder = scene_file.resolve().parent
+    rel = Path(relative)
+    if rel.is_absolute() or relative.startswith(("/", "\\")) or "://" in relative:
+        raise UserError(f"{scene_file.name}: refusing {relative!r}: referenced files must lie in the scene's folder")
+    target = (folder / rel).resolve()
+    if folder not in target.parents and target != folder:
+        raise UserError(f"{scene_file.name}: refusing {relative!r}: it points outside the scene's folder")
+    return target
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def decode_image(data: bytes, what: str) -> np.ndarray | None:
+    """sRGB-encoded image bytes -> H x W x 3 linear float32, or None (with a warning) if undecodable."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(io.BytesIO(data)) as img:
+            rgb = np.asarray(img.convert("RGB"), np.float32) / 255.0
+    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as e:
+        warnings.warn(f"{what}: cannot decode image ({e}); using the base colour", stacklevel=2)
+        return None
+    return srgb_to_linear(rgb)
+
+
+def compute_normals(positions: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals, for files that carry none."""
+    p = positions.astype(np.float64)
+    tris = np.asarray(tris, np.int64)
+    fn = np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]])
+    vn = np.zeros_like(p)
+    for k in range(3):
+        np.add.at(vn, tris[:, k], fn)
+    return vn.astype(np.float32)

@@ -1,0 +1,236 @@
+"""The one in-memory scene form that both the rasteriser and the tracer consume.
+
+Units follow DESIGN.md: right-handed, +Y up, metres; point/spot intensity in W/sr,
+directional irradiance in W/m^2, emissive triangles emit radiance Le.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.errors import UserError
+
+
+@dataclass
+class Material:
+    name: str = "default"
+    base_color: tuple = (0.8, 0.8, 0.8, 1.0)  # linear RGBA factor
+    texture: np.ndarray | None = None  # H x W x 3 float32 linear RGB, multiplied with base_color
+    roughness: float = 0.5
+    metallic: float = 0.0
+    emissive: tuple = (0.0, 0.0, 0.0)  # radiance Le (factor x strength), W/(sr m^2)
+    double_sided: bool = True
+
+    @property
+    def is_emissive(self) -> bool:
+        return max(self.emissive) > 0.0
+
+
+@dataclass
+class Light:
+    kind: str  # "point" | "spot" | "directional"
+    color: tuple = (1.0, 1.0, 1.0)
+    intensity: float = 1.0  # W/sr (point, spot) or W/m^2 (directional)
+    position: tuple = (0.0, 0.0, 0.0)
+    direction: tuple = (0.0, -1.0, 0.0)  # direction the light travels (spot axis, sun rays)
+    angular_radius: float = 0.0  # radians; sun disc size for soft shadows
+    inner_cone: float = 0.0  # radians (spot)
+    outer_cone: float = np.pi / 4  # radians (spot)
+    name: str = ""
+
+    @property
+    def radiance_scale(self) -> np.ndarray:
+        """Colour times intensity: radiant intensity (W/sr) or irradiance (W/m^2) per channel."""
+        return np.asarray(self.color, np.float32) * np.float32(self.intensity)
+
+
+@dataclass
+class View:
+    name: str
+    eye: tuple
+    target: tuple
+    up: tuple = (0.0, 1.0, 0.0)
+    fov: float = 60.0  # vertical, degrees
+
+    def to_string(self) -> str:
+        f = lambda v: ",".join(f"{x:.4g}" for x in v)  # noqa: E731
+        return f"eye={f(self.eye)};target={f(self.target)};up={f(self.up)};fov={self.fov:.4g}"
+
+
+ENV_KINDS = ("black", "sky", "constant")
+
+
+@dataclass
+class Environment:
+    """Radiance returned by rays that miss. 'sky' is a simple analytic gradient."""
+
+    kind: str = "black"
+    color: tuple = (0.0, 0.0, 0.0)  # for "constant"; zenith tint scale for "sky"
+    strength: float = 1.0
+
+    def radiance(self, dirs: np.ndarray) -> np.ndarray:
+        """Radiance (N,3) float32 for unit directions (N,3)."""
+        n = dirs.shape[0]
+        if self.kind == "black":
+            return np.zeros((n, 3), np.float32)
+        if self.kind == "constant":
+            return np.broadcast_to(np.asarray(self.color, np.float32), (n, 3)).copy()
+        y = np.clip(dirs[:, 1:2], -1.0, 1.0)
+        return sky_radiance(y) * np.float32(self.strength)
+
+    @staticmethod
+    def parse(text: str) -> Environment:
+        t = text.strip().lower()
+        if t in ("black", "sky"):
+            return Environment(t)
+        parts = t.split(",")
+        try:
+            rgb = tuple(float(p) for p in parts)
+        except ValueError:
+            rgb = ()
+        if len(rgb) != 3 or not all(np.isfinite(rgb)) or min(rgb) < 0:
+            raise UserError(f"env: expected black, sky or R,G,B with non-negative numbers, got {text!r}")
+        return Environment("constant", rgb)
+
+    def to_string(self) -> str:
+        if self.kind == "constant":
+            return ",".join(f"{c:g}" for c in self.color)
+        return self.kind
+
+
+SKY_HORIZON = np.array([0.9, 0.95, 1.0], np.float32)
+SKY_ZENITH = np.array([0.25, 0.45, 0.9], np.float32)
+SKY_GROUND = np.array([0.25, 0.23, 0.2], np.float32)
+
+
+def sky_radiance(y: np.ndarray) -> np.ndarray:
+    """Analytic sky: blue zenith, bright horizon, dim ground. Shared with shaders/sky.glsl."""
+    y = y.astype(np.float32)
+    up = np.clip(y, 0.0, 1.0) ** 0.5
+    down = np.clip(-y, 0.0, 1.0) ** 0.5
+    sky = SKY_HORIZON * (1 - up) + SKY_ZENITH * up
+    ground = SKY_HORIZON * (1 - down) * 0.5 + SKY_GROUND * down
+    return np.where(y >= 0, sky, ground).astype(np.float32)
+
+
+@dataclass
+class Scene:
+    name: str
+    positions: np.ndarray  # (V,3) float32
+    normals: np.ndarray  # (V,3) float32, unit
+    uvs: np.ndarray  # (V,2) float32
+    indices: np.ndarray  # (T,3) int32
+    material_ids: np.ndarray  # (T,) int32
+    materials: list
+    lights: list = field(default_factory=list)
+    environment: Environment = field(default_factory=Environment)
+    views: dict = field(default_factory=dict)  # name -> View, first is the default
+    source: str = "builtin"
+    # ambient radiance an artist would set for a raster engine; only the forward baseline uses it
+    ambient: tuple = (0.0, 0.0, 0.0)
+
+    # -- derived data -----------------------------------------------------------------
+    @property
+    def triangle_count(self) -> int:
+        return int(self.indices.shape[0])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.positions.shape[0] == 0:
+            z = np.zeros(3, np.float32)
+            return z, z
+        return self.positions.min(axis=0), self.positions.max(axis=0)
+
+    @property
+    def diagonal(self) -> float:
+        lo, hi = self.bounds()
+        return float(np.linalg.norm(hi - lo))
+
+    def emissive_triangles(self) -> np.ndarray:
+        """Indices of triangles whose material emits: they are area lights."""
+        flags = np.array([m.is_emissive for m in self.materials], bool)
+        if flags.size == 0:
+            return np.zeros(0, np.int64)
+        return np.nonzero(flags[self.material_ids])[0]
+
+    def triangle_areas(self, tris: np.ndarray | None = None) -> np.ndarray:
+        idx = self.indices if tris is None else self.indices[tris]
+        p = self.positions
+        e1 = p[idx[:, 1]] - p[idx[:, 0]]
+        e2 = p[idx[:, 2]] - p[idx[:, 0]]
+        return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+
+    @property
+    def has_light(self) -> bool:
+        return bool(self.lights) or self.emissive_triangles().size > 0
+
+    def default_view(self) -> View:
+        if self.views:
+            return next(iter(self.views.values()))
+        return auto_view(self)
+
+    def stats(self) -> dict:
+        lo, hi = self.bounds()
+        kinds = {}
+        for light in self.lights:
+            kinds[light.kind] = kinds.get(light.kind, 0) + 1
+        return {
+            "name": self.name,
+            "source": self.source,
+            "triangles": self.triangle_count,
+            "vertices": int(self.positions.shape[0]),
+            "materials": len(self.materials),
+            "lights": len(self.lights),
+            "light_kinds": kinds,
+            "emissive_triangles": int(self.emissive_triangles().size),
+            "textures": sum(m.texture is not None for m in self.materials),
+            "bounds_min": [round(float(x), 4) for x in lo],
+            "bounds_max": [round(float(x), 4) for x in hi],
+            "environment": self.environment.to_string(),
+            "views": list(self.views),
+        }
+
+    # -- invariants ---------------------------------------------------------------------
+    def validate(self) -> None:
+        """Raise UserError for data neither renderer can use; normalise dtypes in place."""
+        self.positions = np.ascontiguousarray(self.positions, np.float32).reshape(-1, 3)
+        self.normals = np.ascontiguousarray(self.normals, np.float32).reshape(-1, 3)
+        self.uvs = np.ascontiguousarray(self.uvs, np.float32).reshape(-1, 2)
+        self.indices = np.ascontiguousarray(self.indices).reshape(-1, 3)
+        self.material_ids = np.ascontiguousarray(self.material_ids, np.int32).reshape(-1)
+        v = self.positions.shape[0]
+        if self.indices.shape[0] == 0:
+            raise UserError(f"{self.name}: the scene has no triangles")
+        if not np.isfinite(self.positions).all():
+            raise UserError(f"{self.name}: non-finite vertex positions")
+        if self.indices.min() < 0 or self.indices.max() >= v:
+            raise UserError(f"{self.name}: triangle indices out of range (vertex count {v})")
+        self.indices = self.indices.astype(np.int32)
+        if self.normals.shape[0] != v or self.uvs.shape[0] != v:
+            raise UserError(f"{self.name}: normals/uvs do not match the vertex count")
+        if self.material_ids.shape[0] != self.indices.shape[0]:
+            raise UserError(f"{self.name}: one material id per triangle expected")
+        if not self.materials or self.material_ids.min() < 0 or self.material_ids.max() >= len(self.materials):
+            raise UserError(f"{self.name}: material ids out of range")
+        self.normals = fix_normals(self.normals)
+
+
+def fix_normals(normals: np.ndarray) -> np.ndarray:
+    """Unit normals; zero or non-finite ones become +Y so shading never sees NaN."""
+    n = np.where(np.isfinite(normals), normals, 0.0).astype(np.float32)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    bad = length[:, 0] < 1e-12
+    n = n / np.maximum(length, 1e-12)
+    n[bad] = (0.0, 1.0, 0.0)
+    return n.astype(np.float32)
+
+
+def auto_view(scene: Scene) -> View:
+    """A view that frames the whole scene from the front-top, for files without a camera."""
+    lo, hi = scene.bounds()
+    c = (lo + hi) * 0.5
+    r = max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-3)
+    fov = 45.0
+    dist = r / np.tan(np.radians(fov) * 0.5)
+    eye = c + np.array([0.45, 0.35, 0.82], np.float32) * dist
+    return View("auto", tuple(map(float, eye)), tuple(map(float, c)), (0.0, 1.0, 0.0), fov)

@@ -1,0 +1,33 @@
+#version 430
+#include "common.glsl"
+// G-buffer: everything a later pass needs about the primary hit, in world space.
+in vec3 v_position;
+in vec3 v_normal;
+in vec2 v_uv;
+in vec4 v_clip;
+in vec4 v_prev_clip;
+uniform vec3 eye;
+uniform vec3 cam_forward;
+uniform vec2 viewport;
+layout(location = 0) out vec4 out_position;   // xyz world position, w linear depth (m)
+layout(location = 1) out vec4 out_normal;     // xyz shading normal (faces the eye), w roughness
+layout(location = 2) out vec4 out_albedo;     // rgb albedo, a metallic
+layout(location = 3) out vec4 out_emissive;   // rgb emitted radiance, a material id
+layout(location = 4) out vec4 out_face;       // xyz face normal (faces the eye), w coverage
+layout(location = 5) out vec2 out_motion;     // pixels moved since the previous frame
+void main() {
+    MaterialSample m = fetch_material(triangle_material(gl_PrimitiveID), v_uv);
+    vec3 to_eye = eye - v_position;
+    vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));
+    if (dot(ng, to_eye) < 0.0) ng = -ng;
+    vec3 n = normalize(v_normal);
+    if (dot(n, ng) < 0.0) n = -n;  // double-sided: shade the side we see
+    out_position = vec4(v_position, dot(v_position - eye, cam_forward));
+    out_normal = vec4(n, m.roughness);
+    out_albedo = vec4(m.albedo, m.metallic);
+    out_emissive = vec4(m.emissive, float(m.id));
+    out_face = vec4(ng, 1.0);
+    vec2 cur = (v_clip.xy / v_clip.w * 0.5 + 0.5) * viewport;
+    vec2 prev = (v_prev_clip.xy / v_prev_clip.w * 0.5 + 0.5) * viewport;
+    out_motion = cur - prev;
+}

@@ -1,0 +1,20 @@
+#version 430
+// World-space geometry for the G-buffer and the forward pass.
+in vec3 in_position;
+in vec3 in_normal;
+in vec2 in_uv;
+uniform mat4 view_proj;
+uniform mat4 prev_view_proj;
+out vec3 v_position;
+out vec3 v_normal;
+out vec2 v_uv;
+out vec4 v_clip;
+out vec4 v_prev_clip;
+void main() {
+    v_position = in_position;
+    v_normal = in_normal;
+    v_uv = in_uv;
+    v_clip = view_proj * vec4(in_position, 1.0);
+    v_prev_clip = prev_view_proj * vec4(in_position, 1.0);
+    gl_Position = v_clip;
+}
