@@ -1,0 +1,130 @@
+"""`rtlab` command line. User mistakes print one line and exit non-zero; never a traceback."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+
+from app.errors import UserError
+from app.passes import ALL
+
+PROG = "rtlab"
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2, like every other user error
+        raise UserError(f"{self.prog}: {message}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="When does ray-traced lighting beat rasterised lighting? View, measure, "
+                                       "and explain, pass by pass.")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    s = sub.add_parser("scenes", help="list built-in scenes (or a file's statistics)")
+    s.add_argument("paths", nargs="*", help="scene files or built-in names (name:detail) to describe")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+
+    s = sub.add_parser("shot", help="render a headless screenshot")
+    s.add_argument("scene", help="built-in name (arcade, street, cafe, park, temple; name:detail) or a file")
+    s.add_argument("--pass", dest="pass_name", default="forward", metavar="NAME", help=f"one of {', '.join(ALL)}")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE", help="option, e.g. ao.radius=0.5 (repeatable)")
+    s.add_argument("--size", default="640x360", help="WIDTHxHEIGHT (default 640x360)")
+    s.add_argument("--frames", type=int, default=1, help="frames to render; accumulated when accumulate=true")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--camera", help='a named view or "eye=x,y,z;target=x,y,z;up=x,y,z;fov=DEG"')
+    s.add_argument("--out", help="PNG path (default SCENE_PASS.png)")
+    s.add_argument("--raw", help="also write the linear image before tone mapping (.npy, float32 HxWx3)")
+
+    s = sub.add_parser("view", help="open the interactive viewer")
+    s.add_argument("scene", nargs="?", default=None, help="built-in name or file (default arcade)")
+    s.add_argument("--pass", dest="pass_name", default="forward", metavar="NAME")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE")
+    s.add_argument("--size", default="1280x720")
+    s.add_argument("--exit-after", type=int, default=0, metavar="N", help="render N frames, then exit")
+    s.add_argument("--screenshot", metavar="FILE.png", help="save the window (with the UI) before exiting")
+
+    s = sub.add_parser("bench", help="benchmark techniques per scene")
+    s.add_argument("--scenes")
+    s.add_argument("--configs")
+    s.add_argument("--size", default="1280x720")
+    s.add_argument("--seconds", type=float)
+    s.add_argument("--frames", type=int)
+    s.add_argument("--out", default="bench")
+    s.add_argument("--quick", action="store_true")
+
+    s = sub.add_parser("report", help="write tables, plots and recommendations from a bench folder")
+    s.add_argument("dir")
+    return p
+
+
+def cmd_scenes(args) -> int:
+    from scenes.builtin import BUILTINS
+    from scenes.loaders import load_scene
+
+    names = args.paths or list(BUILTINS)
+    rows = []
+    for name in names:
+        scene = load_scene(name)
+        st = scene.stats()
+        st["description"] = BUILTINS[name.partition(":")[0]][1] if name.partition(":")[0] in BUILTINS else ""
+        rows.append(st)
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    print(f"{'scene':<10} {'triangles':>10} {'lights':>7} {'emissive':>9} {'materials':>9}  {'bounds (m)':<34} views")
+    for r in rows:
+        lo, hi = r["bounds_min"], r["bounds_max"]
+        bounds = f"{'×'.join(f'{h - lo_:.1f}' for lo_, h in zip(lo, hi, strict=False))}"
+        print(f"{r['name']:<10} {r['triangles']:>10,} {r['lights']:>7} {r['emissive_triangles']:>9,} "
+              f"{r['materials']:>9}  {bounds:<34} {', '.join(r['views'])}")
+        if r["description"]:
+            print(f"{'':<10} {r['description']}")
+    return 0
+
+
+def cmd_view(args) -> int:
+    from app.viewer import run_viewer
+
+    return run_viewer(args)
+
+
+def cmd_bench(args) -> int:
+    raise UserError("rtlab bench needs the ray-traced passes, which this build does not have yet")
+
+
+def cmd_report(args) -> int:
+    raise UserError("rtlab report reads a bench folder; rtlab bench is not part of this build yet")
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None):
+    print(f"{PROG}: warning: {message}", file=sys.stderr)
+
+
+def main(argv=None) -> int:
+    warnings.showwarning = _warning_line
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if args.command is None:
+            parser.print_help()
+            return 2
+        if args.command == "shot":
+            from app.headless import run_shot
+
+            return run_shot(args)
+        return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report}[args.command](args)
+    except UserError as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return e.exit_code
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except MemoryError:
+        print(f"{PROG}: error: out of memory", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,178 @@
+"""ImGui panels of the viewer: settings (like Falcor's Mogwai), profiler, help.
+
+Every option is drawn from its dataclass spec, so the UI and `--set` share keys and ranges.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from app.errors import UserError
+from app.passes import ALL, AVAILABLE
+
+KEYS_HELP = [
+    ("W A S D", "move"), ("Q / E", "down / up"), ("right mouse drag", "look"), ("Shift / Ctrl", "faster / slower"),
+    ("scroll wheel", "change speed"), ("1 - 9", "camera bookmarks"), ("F12", "screenshot (PNG + .npy)"),
+    ("G or F2", "hide / show UI"), ("P", "profiler"), ("R", "reset accumulation"), ("Esc", "quit"),
+]
+
+
+def draw_option(imgui, options, key: str) -> bool:
+    """One widget for one option key; returns True if the user changed it."""
+    spec = options.spec(key)
+    value = options.get(key)
+    label = key
+    changed, new = False, value
+    if isinstance(value, bool):
+        changed, new = imgui.checkbox(label, value)
+    elif spec.get("choices"):
+        choices = list(spec["choices"])
+        idx = choices.index(value) if value in choices else 0
+        changed, idx = imgui.combo(label, idx, choices)
+        new = choices[idx]
+    elif isinstance(value, int):
+        lo, hi = spec.get("lo", 0), spec.get("hi", 100)
+        if hi - lo <= 64:
+            changed, new = imgui.slider_int(label, value, int(lo), int(hi))
+        else:
+            changed, new = imgui.input_int(label, value)
+            new = int(np.clip(new, lo, hi))
+    elif isinstance(value, float):
+        lo, hi = float(spec.get("lo") or 0.0), float(spec.get("hi") or 1.0)
+        if hi / max(lo, 1e-9) > 1e3 or hi > 20:
+            changed, new = imgui.drag_float(label, value, max(abs(value) * 0.01, 1e-3), lo, hi, "%.3f")
+        else:
+            changed, new = imgui.slider_float(label, value, lo, hi, "%.3f")
+    else:
+        changed, new = imgui.input_text(label, str(value), imgui.InputTextFlags_.enter_returns_true.value)
+    if spec.get("help") and imgui.is_item_hovered():
+        imgui.set_tooltip(spec["help"])
+    if changed and new != value:
+        options.set(key, new if not isinstance(new, str) else new.strip())
+        return True
+    return False
+
+
+def option_keys_for(options, pass_name: str) -> list[str]:
+    group = "forward" if pass_name in ("forward", "hybrid") else pass_name
+    keys = [k for k in options.keys() if k.startswith(group + ".")]
+    return keys
+
+
+class Panel:
+    def __init__(self, viewer):
+        self.v = viewer
+        self.scene_path = ""
+        self.camera_json = "cameras.json"
+        self.error = ""
+        self.message = ""
+
+    def draw(self, imgui) -> None:
+        v = self.v
+        imgui.set_next_window_pos((10, 10), imgui.Cond_.first_use_ever.value)
+        imgui.set_next_window_size((380, 620), imgui.Cond_.first_use_ever.value)
+        imgui.begin("rtlab")
+        if self.error:
+            imgui.text_colored((1.0, 0.35, 0.3, 1.0), self.error)
+            if imgui.small_button("dismiss"):
+                self.error = ""
+        elif self.message:
+            imgui.text_disabled(self.message)
+        if imgui.collapsing_header("Scene", imgui.TreeNodeFlags_.default_open.value):
+            from scenes.builtin import BUILTINS
+
+            names = list(BUILTINS)
+            current = v.scene_spec.partition(":")[0]
+            idx = names.index(current) if current in names else -1
+            changed, idx = imgui.combo("built-in", idx, names)
+            if changed and idx >= 0:
+                v.request_scene(names[idx])
+            _, self.scene_path = imgui.input_text("file", self.scene_path)
+            imgui.same_line()
+            if imgui.button("open"):
+                v.request_scene(self.scene_path.strip())
+            st = v.scene.stats()
+            imgui.text(f"{st['triangles']:,} triangles, {st['lights']} lights, "
+                       f"{st['emissive_triangles']:,} emissive")
+        if imgui.collapsing_header("Render", imgui.TreeNodeFlags_.default_open.value):
+            idx = ALL.index(v.pass_name)
+            changed, idx = imgui.combo("pass", idx, list(ALL))
+            if changed:
+                if ALL[idx] in AVAILABLE:
+                    v.pass_name = ALL[idx]
+                else:
+                    self.error = f"pass {ALL[idx]!r} needs the ray tracer (not in this build)"
+            for key in ("exposure", "env", "accumulate", "max_frames", "gbuffer"):
+                self._option(imgui, key)
+            _, v.resolution_scale = imgui.slider_float("resolution scale", v.resolution_scale, 0.25, 1.0, "%.2f")
+            _, v.motion_scale = imgui.slider_float("scale while moving", v.motion_scale, 0.25, 1.0, "%.2f")
+            imgui.text(f"accumulated frames: {v.renderer.frame_count}")
+            imgui.same_line()
+            if imgui.button("reset (R)"):
+                v.renderer.reset()
+            for key in option_keys_for(v.options, v.pass_name):
+                self._option(imgui, key)
+        if imgui.collapsing_header("Camera"):
+            cams = list(v.scene.views)
+            for k, name in enumerate(cams[:9]):
+                if imgui.button(f"{k + 1}: {name}"):
+                    v.go_to_view(name)
+                if k % 3 != 2 and k != len(cams[:9]) - 1:
+                    imgui.same_line()
+            _, v.fly.speed = imgui.drag_float("speed m/s", v.fly.speed, 0.05, 0.001, 10000.0)
+            if imgui.button("print --camera"):
+                text = v.fly.camera.to_string()
+                print(f'--camera "{text}"', flush=True)
+                imgui.set_clipboard_text(text)
+                self.message = "camera printed to the terminal and copied"
+            _, self.camera_json = imgui.input_text("bookmarks file", self.camera_json)
+            if imgui.button("save bookmarks"):
+                self._guard(lambda: v.save_bookmarks(self.camera_json))
+            imgui.same_line()
+            if imgui.button("load bookmarks"):
+                self._guard(lambda: v.load_bookmarks(self.camera_json))
+        if imgui.collapsing_header("Help"):
+            for keys, what in KEYS_HELP:
+                imgui.text(f"{keys:<18} {what}")
+        imgui.end()
+        if v.show_profiler:
+            self.draw_profiler(imgui)
+
+    def _guard(self, fn) -> None:
+        try:
+            fn()
+            self.error = ""
+        except UserError as e:
+            self.error = str(e)
+
+    def _option(self, imgui, key: str) -> None:
+        try:
+            draw_option(imgui, self.v.options, key)
+        except UserError as e:
+            self.error = str(e)
+
+    def draw_profiler(self, imgui) -> None:
+        v = self.v
+        prof = v.renderer.profiler
+        imgui.set_next_window_pos((v.fb_size[0] - 330, 10), imgui.Cond_.first_use_ever.value)
+        imgui.set_next_window_size((320, 300), imgui.Cond_.first_use_ever.value)
+        imgui.begin("Profiler (P)")
+        fps = 1000.0 / max(np.mean(v.frame_times) if v.frame_times else 1.0, 1e-6)
+        imgui.text(f"frame {v.frame_times[-1] if v.frame_times else 0:.2f} ms   {fps:.1f} fps")
+        if v.frame_times:
+            imgui.plot_lines("##frametime", np.asarray(v.frame_times, np.float32), graph_size=(300, 50))
+        if imgui.begin_table("passes", 4):
+            for h in ("pass", "kind", "last ms", "avg ms"):
+                imgui.table_setup_column(h)
+            imgui.table_headers_row()
+            for name in prof.names():
+                imgui.table_next_row()
+                for col, text in enumerate((name, prof.kind.get(name, ""), f"{prof.last(name):.2f}",
+                                            f"{prof.average(name):.2f}")):
+                    imgui.table_set_column_index(col)
+                    imgui.text(text)
+            imgui.end_table()
+        rays = prof.counters.get("rays", 0)
+        if rays:
+            imgui.text(f"{rays / max(v.frame_times[-1], 1e-6) / 1e3:.2f} Mrays/s")
+        imgui.end()
+

@@ -1,0 +1,270 @@
+"""`rtlab view`: GLFW window + ModernGL + ImGui (imgui-bundle's native backends).
+
+The scene renders through the same Renderer as `rtlab shot`; the panel edits the same
+option keys. A failed scene load or option shows its error in the panel and keeps the
+previous state.
+"""
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import sys
+import time
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+
+from app.camera import Camera
+from app.errors import UserError
+from app.fly_camera import FlyCamera, FlyInput
+from app.gl_context import fullscreen, set_uniform, wrap_current_context
+from app.headless import parse_size
+from app.image_io import write_npy, write_png
+from app.options import Options
+from app.passes import check_pass
+from app.renderer import Renderer
+from app.ui_panel import Panel
+from scenes.builtin import DEFAULT_SCENE
+from scenes.loaders import load_scene
+from scenes.model import View
+
+NO_DISPLAY = ("no display to open a window on (DISPLAY is not set); for a headless image run: "
+              "rtlab shot {scene} --out {scene}.png")
+
+
+def has_display() -> bool:
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+class Viewer:
+    def __init__(self, args):
+        import glfw
+
+        self.glfw = glfw
+        self.scene_spec = args.scene or DEFAULT_SCENE
+        width, height = parse_size(args.size)
+        self.options = Options()
+        self.options.apply(args.set or [])
+        self.pass_name = check_pass(args.pass_name)
+        scene = load_scene(self.scene_spec)
+        if not glfw.init():
+            raise UserError(NO_DISPLAY.format(scene=self.scene_spec))
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.SCALE_TO_MONITOR, True)
+        self.window = glfw.create_window(width, height, f"rtlab - {scene.name}", None, None)
+        if not self.window:
+            glfw.terminate()
+            raise UserError("cannot open an OpenGL 4.3 window on this display; try rtlab shot")
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(0)  # vsync off: frame times mean something
+        self.ctx = wrap_current_context()
+        self.scene = scene
+        self.renderer = Renderer(self.ctx, scene, self.options)
+        self.renderer.reuse_static_frames = True
+        self.resolution_scale = 1.0  # of the window, for every frame
+        self.motion_scale = 0.5  # extra scale while the camera moves, so flying stays interactive
+        self.moving = False
+        self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
+        self.show_ui = True
+        self.show_profiler = True
+        self.frame_times: deque = deque(maxlen=240)
+        self.panel = Panel(self)
+        self.pending_scene: str | None = None
+        self.bookmarks: dict[str, View] = dict(scene.views)
+        self.fb_size = glfw.get_framebuffer_size(self.window)
+        self._init_imgui()
+
+    def _init_imgui(self) -> None:
+        from imgui_bundle import imgui
+
+        self.imgui = imgui
+        imgui.create_context()
+        io = imgui.get_io()
+        io.set_ini_filename("")
+        xscale, _ = self.glfw.get_window_content_scale(self.window)
+        if xscale > 1.01:
+            imgui.get_style().scale_all_sizes(xscale)
+            io.font_global_scale = xscale
+        address = ctypes.cast(self.window, ctypes.c_void_p).value
+        imgui.backends.glfw_init_for_opengl(address, True)
+        imgui.backends.opengl3_init("#version 330")
+
+    # -- actions --------------------------------------------------------------------------
+    def request_scene(self, spec: str) -> None:
+        self.pending_scene = spec
+
+    def _load_pending_scene(self) -> None:
+        spec, self.pending_scene = self.pending_scene, None
+        try:
+            scene = load_scene(spec)
+        except UserError as e:
+            self.panel.error = str(e)  # keep the old scene
+            return
+        self.scene, self.scene_spec = scene, spec
+        self.renderer.set_scene(scene)
+        self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
+        self.bookmarks = dict(scene.views)
+        self.glfw.set_window_title(self.window, f"rtlab - {scene.name}")
+        self.panel.error = ""
+
+    def go_to_view(self, name: str) -> None:
+        view = self.bookmarks[name]
+        self.fly.set_camera(Camera.from_view(view, self.scene.diagonal))
+
+    def save_bookmarks(self, path: str) -> None:
+        from app.image_io import write_text
+
+        data = {name: v.__dict__ for name, v in self.bookmarks.items()}
+        data["current"] = View("current", *(tuple(map(float, x)) for x in
+                                            (self.fly.camera.eye, self.fly.camera.target, self.fly.camera.up)),
+                               self.fly.camera.fov).__dict__
+        write_text(path, json.dumps(data, indent=2))
+        self.panel.message = f"saved {len(data)} bookmarks to {path}"
+
+    def load_bookmarks(self, path: str) -> None:
+        try:
+            data = json.loads(Path(path).read_text())
+            views = {name: View(name, tuple(d["eye"]), tuple(d["target"]), tuple(d.get("up", (0, 1, 0))),
+                                float(d.get("fov", 60.0))) for name, d in data.items()}
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise UserError(f"cannot load bookmarks from {path}: {e}") from None
+        self.bookmarks = views
+        self.panel.message = f"loaded {len(views)} bookmarks"
+
+    def screenshot(self, path: str | None = None) -> str:
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = path or f"rtlab-{self.scene.name.replace(':', '_')}-{self.pass_name}-{stamp}.png"
+        w, h = self.fb_size
+        data = np.frombuffer(self.ctx.screen.read(viewport=(0, 0, w, h), components=3), np.uint8)
+        write_png(path, data.reshape(h, w, 3)[::-1])
+        if self.renderer.frame is not None:
+            write_npy(str(Path(path).with_suffix(".npy")), self.renderer.read_linear())
+        self.panel.message = f"saved {path}"
+        return path
+
+    # -- input -----------------------------------------------------------------------------
+    def _input(self) -> FlyInput:
+        imgui, glfw, win = self.imgui, self.glfw, self.window
+        io = imgui.get_io()
+        keys = not io.want_capture_keyboard
+        down = (lambda k: glfw.get_key(win, k) == glfw.PRESS) if keys else (lambda k: False)
+        move = (float(down(glfw.KEY_D)) - float(down(glfw.KEY_A)),
+                float(down(glfw.KEY_E)) - float(down(glfw.KEY_Q)),
+                float(down(glfw.KEY_W)) - float(down(glfw.KEY_S)))
+        look = (0.0, 0.0)
+        if not io.want_capture_mouse and glfw.get_mouse_button(win, glfw.MOUSE_BUTTON_RIGHT) == glfw.PRESS:
+            look = (float(io.mouse_delta.x), float(io.mouse_delta.y))
+        scroll = 0.0 if io.want_capture_mouse else float(io.mouse_wheel)
+        fast = down(glfw.KEY_LEFT_SHIFT) or down(glfw.KEY_RIGHT_SHIFT)
+        slow = down(glfw.KEY_LEFT_CONTROL) or down(glfw.KEY_RIGHT_CONTROL)
+        if keys:
+            self._shortcuts()
+        return FlyInput(move, look, fast, slow, scroll)
+
+    def _shortcuts(self) -> None:
+        imgui = self.imgui
+        K = imgui.Key
+        pressed = lambda k: imgui.is_key_pressed(k, False)  # noqa: E731
+        if pressed(K.escape):
+            self.glfw.set_window_should_close(self.window, True)
+        if pressed(K.g) or pressed(K.f2):
+            self.show_ui = not self.show_ui
+        if pressed(K.p):
+            self.show_profiler = not self.show_profiler
+        if pressed(K.r):
+            self.renderer.reset()
+        if pressed(K.f12):
+            try:
+                self.screenshot()
+            except UserError as e:
+                self.panel.error = str(e)
+        names = list(self.bookmarks)
+        for k in range(9):
+            if pressed(getattr(K, f"_{k + 1}")) and k < len(names):
+                self.go_to_view(names[k])
+
+    # -- loop ------------------------------------------------------------------------------
+    def frame(self, dt: float) -> None:
+        imgui, glfw = self.imgui, self.glfw
+        self.fb_size = glfw.get_framebuffer_size(self.window)
+        imgui.backends.opengl3_new_frame()
+        imgui.backends.glfw_new_frame()
+        imgui.new_frame()
+        self.moving = self.fly.update(dt, self._input())
+        if self.show_ui:
+            self.panel.draw(imgui)
+        elif self.show_profiler:
+            self.panel.draw_profiler(imgui)
+        imgui.render()
+        if self.pending_scene:
+            self._load_pending_scene()
+        w, h = self.fb_size
+        self.ctx.screen.use()
+        self.ctx.screen.viewport = (0, 0, max(w, 1), max(h, 1))
+        self.ctx.screen.clear(0.08, 0.08, 0.09, 1.0)
+        if w > 0 and h > 0:  # minimised windows are 0x0: skip rendering, keep the loop alive
+            scale = self.resolution_scale * (self.motion_scale if self.moving else 1.0)
+            rw, rh = max(1, int(w * scale)), max(1, int(h * scale))
+            try:
+                self.renderer.render(self.fly.camera, rw, rh, self.pass_name)
+            except UserError as e:
+                self.panel.error = str(e)
+            else:
+                self.ctx.screen.use()
+                self.ctx.screen.viewport = (0, 0, w, h)
+                prog, vao = fullscreen(self.ctx, "blit.frag")
+                display = self.renderer.frame.channels["display"]
+                display.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+                display.use(0)
+                set_uniform(prog, "image", 0)
+                vao.render(vertices=3)
+        imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+
+    def run(self, exit_after: int = 0, screenshot: str | None = None) -> int:
+        glfw = self.glfw
+        last = time.perf_counter()
+        frames = 0
+        while not glfw.window_should_close(self.window):
+            glfw.poll_events()
+            now = time.perf_counter()
+            dt, last = now - last, now
+            self.frame(min(dt, 0.25))
+            self.frame_times.append(dt * 1e3)
+            frames += 1
+            if exit_after and frames >= exit_after:
+                if screenshot:
+                    self.screenshot(screenshot)
+                break
+            glfw.swap_buffers(self.window)
+        return 0
+
+    def close(self) -> None:
+        imgui = self.imgui
+        imgui.backends.opengl3_shutdown()
+        imgui.backends.glfw_shutdown()
+        imgui.destroy_context()
+        self.renderer.release()
+        self.glfw.destroy_window(self.window)
+        self.glfw.terminate()
+
+
+def run_viewer(args) -> int:
+    scene = args.scene or DEFAULT_SCENE
+    if not has_display():
+        raise UserError(NO_DISPLAY.format(scene=scene))
+    if args.screenshot and not args.exit_after:
+        args.exit_after = 1
+    viewer = Viewer(args)
+    try:
+        return viewer.run(args.exit_after, args.screenshot)
+    finally:
+        viewer.close()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(run_viewer(None))

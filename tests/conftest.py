@@ -1,0 +1,59 @@
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+GOLDEN = ROOT / "screenshots" / "golden"
+FAILURES = ROOT / "tests" / "_failures"
+
+
+def pytest_addoption(parser):
+    parser.addoption("--regen-golden", action="store_true", help="rewrite the golden images instead of comparing")
+    parser.addoption("--runslow", action="store_true", help="run tests marked slow")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--runslow"):
+        return
+    skip = pytest.mark.skip(reason="slow: use --runslow")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def gl():
+    from app.gl_context import create_headless_context
+
+    return create_headless_context()
+
+
+@pytest.fixture
+def compare_golden(request):
+    """compare_golden(name, image): tolerant comparison with a stored PNG; --regen-golden rewrites it."""
+    from PIL import Image
+
+    def check(name: str, image: np.ndarray, mean_tol: float = 3.0, p99_tol: float = 40.0):
+        path = GOLDEN / f"{name}.png"
+        if request.config.getoption("--regen-golden") or not path.exists():
+            if not request.config.getoption("--regen-golden") and os.environ.get("CI"):
+                pytest.fail(f"golden image {path} is missing; run pytest --regen-golden and commit it")
+            path.parent.mkdir(parents=True, exist_ok=True)
+            Image.fromarray(image).save(path)
+            return
+        ref = np.asarray(Image.open(path).convert("RGB")).astype(np.float32)
+        assert ref.shape == image.shape, f"{name}: size {image.shape} differs from golden {ref.shape}"
+        diff = np.abs(ref - image.astype(np.float32))
+        mean, p99 = float(diff.mean()), float(np.percentile(diff.max(axis=2), 99))
+        if mean > mean_tol or p99 > p99_tol:
+            FAILURES.mkdir(exist_ok=True)
+            Image.fromarray(image).save(FAILURES / f"{name}_actual.png")
+            Image.fromarray(np.clip(diff * 4, 0, 255).astype(np.uint8)).save(FAILURES / f"{name}_diff.png")
+            pytest.fail(f"{name}: mean diff {mean:.2f} (tol {mean_tol}), p99 {p99:.1f} (tol {p99_tol}); "
+                        f"see {FAILURES}")
+
+    return check
