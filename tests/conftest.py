@@ -57,3 +57,34 @@ def compare_golden(request):
                         f"see {FAILURES}")
 
     return check
+
+
+@pytest.fixture(scope="session")
+def display():
+    """An X display for window tests: the current one, or a private Xvfb."""
+    import shutil
+    import subprocess
+    import time
+
+    if os.environ.get("DISPLAY"):
+        yield os.environ["DISPLAY"]
+        return
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        if os.environ.get("CI"):
+            pytest.fail("Xvfb is missing (apt-get install xvfb)")
+        pytest.skip("Xvfb not installed")
+    num = 90 + os.getpid() % 100
+    proc = subprocess.Popen([xvfb, f":{num}", "-screen", "0", "1600x1000x24", "-nolisten", "tcp"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for _ in range(100):
+        if os.path.exists(f"/tmp/.X11-unix/X{num}"):
+            break
+        time.sleep(0.05)
+    os.environ["DISPLAY"] = f":{num}"
+    try:
+        yield os.environ["DISPLAY"]
+    finally:
+        del os.environ["DISPLAY"]
+        proc.terminate()
+        proc.wait(timeout=10)

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs what rtlab needs on a fresh Debian/Ubuntu machine: Mesa EGL/GL, Xvfb and xdotool
+# (window tests), then the Python package with its dev extra. Safe to run again.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY=${PYTHON:-python3}
+
+missing=()
+ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1 ' || missing+=(libegl1)
+ldconfig -p 2>/dev/null | grep -q 'libGLX_mesa.so.0 ' || missing+=(libglx-mesa0)
+[ -d /usr/lib/x86_64-linux-gnu/dri ] || [ -d /usr/lib/aarch64-linux-gnu/dri ] || missing+=(libgl1-mesa-dri)
+command -v Xvfb >/dev/null || missing+=(xvfb)
+command -v xdotool >/dev/null || missing+=(xdotool)
+if [ ${#missing[@]} -gt 0 ]; then
+    if command -v apt-get >/dev/null; then
+        SUDO=""
+        [ "$(id -u)" -eq 0 ] || SUDO=sudo
+        echo "setup: installing ${missing[*]}"
+        $SUDO apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+    else
+        echo "setup: please install ${missing[*]} (Mesa EGL/GL, Xvfb, xdotool) with your package manager" >&2
+    fi
+fi
+
+if ! $PY -c "import app, rt, scenes, moderngl, embreex, imgui_bundle, pytest" 2>/dev/null; then
+    echo "setup: installing rtlab and its Python dependencies"
+    $PY -m pip install -q --disable-pip-version-check -e '.[dev]'
+fi

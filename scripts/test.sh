@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# The test suite: headless GL through EGL, window tests under a private Xvfb.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+PY=${PYTHON:-python3}
+exec $PY -m pytest -q "$@"
