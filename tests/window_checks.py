@@ -1,0 +1,115 @@
+"""Window checks for tests/test_viewer.py, each run in its own interpreter:
+python -m tests.window_checks NAME (exit status 0 = pass)."""
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+
+def view_args(scene="arcade", pass_name="forward", size="320x200", **kw):
+    return SimpleNamespace(scene=scene, pass_name=pass_name, set=kw.pop("set", None), size=size,
+                           exit_after=kw.pop("exit_after", 0), screenshot=kw.pop("screenshot", None))
+
+
+def test_every_mode_renders_in_a_window():
+    from app.passes import AVAILABLE
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(size="200x120"))
+    try:
+        for name in AVAILABLE:
+            v.pass_name = name
+            for _ in range(2):
+                v.frame(0.016)
+            assert v.renderer.frame is not None
+            assert np.isfinite(v.renderer.read_linear()).all(), name
+    finally:
+        v.close()
+
+
+def test_failed_scene_load_keeps_the_old_scene(tmp_path):
+    from app.viewer import Viewer
+
+    v = Viewer(view_args())
+    try:
+        old = v.scene
+        v.request_scene(str(tmp_path / "missing.glb"))
+        v.frame(0.016)
+        assert v.scene is old and "no such file" in v.panel.error
+        v.request_scene("cafe")
+        v.frame(0.016)
+        assert v.scene.name == "cafe" and not v.panel.error
+    finally:
+        v.close()
+
+
+def test_minimise_to_zero_size_does_not_crash():
+    from app.viewer import Viewer
+
+    v = Viewer(view_args())
+    try:
+        v.glfw.set_window_size(v.window, 1, 1)
+        v.glfw.iconify_window(v.window)
+        for _ in range(3):
+            v.glfw.poll_events()
+            v.frame(0.016)
+        v.glfw.restore_window(v.window)
+        v.glfw.set_window_size(v.window, 320, 200)
+        for _ in range(3):
+            v.glfw.poll_events()
+            v.frame(0.016)
+        assert v.renderer.frame is not None
+    finally:
+        v.close()
+
+
+def test_keys_move_the_camera_and_reset_accumulation():
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(size="320x200"))
+    try:
+        for _ in range(3):
+            v.glfw.poll_events()
+            v.frame(0.05)
+        assert v.renderer.frame_count >= 1
+        start = v.fly.camera.eye.copy()
+        wid = str(v.glfw.get_x11_window(v.window))
+        subprocess.run(["xdotool", "windowactivate", "--sync", wid], capture_output=True, timeout=10)
+        subprocess.run(["xdotool", "mousemove", "--window", wid, "250", "150"], capture_output=True, timeout=10)
+
+        def press():
+            time.sleep(0.2)
+            subprocess.run(["xdotool", "keydown", "w"], timeout=10)
+            time.sleep(0.6)
+            subprocess.run(["xdotool", "keyup", "w"], timeout=10)
+
+        t = threading.Thread(target=press)
+        t.start()
+        moved_count = None
+        deadline = time.time() + 5
+        while time.time() < deadline:
+            v.glfw.poll_events()
+            v.frame(0.05)
+            if np.linalg.norm(v.fly.camera.eye - start) > 1e-3 and moved_count is None:
+                moved_count = v.renderer.frame_count
+        t.join()
+        assert np.linalg.norm(v.fly.camera.eye - start) > 0.01, "W did not move the camera"
+        assert moved_count == 1, "accumulation did not reset when the camera moved"
+    finally:
+        v.close()
+
+
+if __name__ == "__main__":
+    name = sys.argv[1]
+    fn = globals()["test_" + name]
+    if "tmp_path" in fn.__code__.co_varnames[: fn.__code__.co_argcount]:
+        with tempfile.TemporaryDirectory() as d:
+            fn(Path(d))
+    else:
+        fn()
+    print(f"{name}: ok")
