@@ -23,7 +23,9 @@ if [ ${#missing[@]} -gt 0 ]; then
     fi
 fi
 
-if ! $PY -c "import app, rt, scenes, moderngl, embreex, imgui_bundle, pytest" 2>/dev/null; then
+# (re)install when a package is missing or `app` resolves to another checkout
+if ! $PY -c "import sys, app, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, pytest
+sys.exit(0 if app.__file__.startswith('$PWD/') else 1)" 2>/dev/null; then
     echo "setup: installing rtlab and its Python dependencies"
     $PY -m pip install -q --disable-pip-version-check -e '.[dev]'
 fi
