@@ -88,6 +88,9 @@ class Options:
     """All option groups of a session, addressed by flat keys."""
 
     def __init__(self):
+        from app.passes import register_all_options
+
+        register_all_options()
         self.groups = {name: cls() for name, cls in GROUPS.items()}
 
     def _field(self, key: str):

@@ -1,18 +1,31 @@
-"""Pass names of the CLI contract and what each one is."""
+"""Pass names of the CLI contract and the ray-traced pass objects."""
+from app.errors import UserError
 from app.raster.channel_view import CHANNEL_VIEWS
 
 RASTER = ("forward",)
 RAY_TRACED = ("shadows", "reflections", "gi", "ao", "hybrid", "reference")
 ALL = RASTER + RAY_TRACED + CHANNEL_VIEWS
-AVAILABLE = RASTER + CHANNEL_VIEWS  # ray-traced passes arrive with the tracer
+AVAILABLE = ALL
+
+
+def RT_PASSES() -> dict:
+    """One object per CPU ray-traced pass (hybrid is composed by the renderer)."""
+    from rt.ao import AOPass
+    from rt.gi import GIPass
+    from rt.reference import ReferencePass
+    from rt.reflections import ReflectionsPass
+    from rt.shadows import ShadowsPass
+
+    return {p.name: p for p in (ShadowsPass(), ReflectionsPass(), GIPass(), AOPass(), ReferencePass())}
+
+
+def register_all_options() -> None:
+    """Import the passes so their option groups exist (they register on import)."""
+    RT_PASSES()
+    import rt.hybrid  # noqa: F401
 
 
 def check_pass(name: str) -> str:
-    from app.errors import UserError
-
     if name not in ALL:
         raise UserError(f"unknown pass {name!r}; choose one of {', '.join(ALL)}")
-    if name not in AVAILABLE:
-        raise UserError(f"pass {name!r} needs the Embree ray tracer, which this build does not have yet; "
-                        f"available: {', '.join(AVAILABLE)}")
     return name

@@ -172,7 +172,7 @@ class Panel:
                     imgui.text(text)
             imgui.end_table()
         rays = prof.counters.get("rays", 0)
-        if rays:
-            imgui.text(f"{rays / max(v.frame_times[-1], 1e-6) / 1e3:.2f} Mrays/s")
+        if rays and v.frame_times:
+            imgui.text(f"{rays / 1e6:.2f} Mrays/frame, {rays / max(v.frame_times[-1], 1e-6) / 1e3:.2f} Mrays/s")
         imgui.end()
 

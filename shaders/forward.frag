@@ -39,6 +39,15 @@ uniform float sun_texel;           // world size of one sun shadow texel
 uniform sampler2DShadow point_shadow;  // atlas: 6 faces per row, one row per slot
 uniform int point_shadow_rows;
 uniform int pcf_radius;
+// hybrid: ray-traced pieces computed on the CPU for the same pixels (0 = use raster)
+uniform int use_rt_direct;       // rt_direct: irradiance x cos from all lights, RT visibility
+uniform int use_rt_ao;           // rt_ao: AO instead of SSAO
+uniform int use_rt_reflection;   // rt_reflection: reflected radiance, alpha 1 where traced
+uniform int use_rt_indirect;     // rt_indirect: mean incoming indirect radiance
+uniform sampler2D rt_direct;
+uniform sampler2D rt_ao;
+uniform sampler2D rt_reflection;
+uniform sampler2D rt_indirect;
 out vec4 radiance;
 
 const vec3 FACE_F[6] = vec3[](vec3(1,0,0), vec3(-1,0,0), vec3(0,1,0), vec3(0,-1,0), vec3(0,0,1), vec3(0,0,-1));
@@ -95,7 +104,8 @@ void main() {
     if (dot(n, ng) < 0.0) n = -n;
     vec3 brdf = m.albedo / PI;
     vec3 direct = vec3(0.0);
-    for (int i = 0; i < light_count; ++i) {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    for (int i = 0; i < (use_rt_direct == 1 ? 0 : light_count); ++i) {
         Light L = lights[i];
         int kind = int(L.position_kind.w);
         int slot = int(L.direction_slot.w);
@@ -127,15 +137,21 @@ void main() {
         }
         direct += brdf * e * cos_theta * vis;
     }
+    if (use_rt_direct == 1) direct = brdf * texelFetch(rt_direct, pixel, 0).rgb;
     vec3 amb = texture(ambient_lut, vec2(n.y * 0.5 + 0.5, 0.5)).rgb + ambient_radiance;
     float occlusion = use_ssao == 1 ? texture(ssao, gl_FragCoord.xy / viewport).r : 1.0;
-    vec3 color = m.emissive + direct + m.albedo * amb * ambient_scale * occlusion;
-    if (use_env_reflections == 1 && m.roughness < roughness_threshold) {
-        vec3 r = reflect(-v, n);
-        vec3 f0 = mix(vec3(0.04), m.albedo, m.metallic);
-        vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - max(dot(n, v), 0.0), 5.0);
-        vec3 reflected = texture(env_cube, r).rgb;
-        color = (1.0 - fresnel) * color + fresnel * reflected;
+    if (use_rt_ao == 1) occlusion = texelFetch(rt_ao, pixel, 0).r;
+    vec3 ambient = m.albedo * amb * ambient_scale * occlusion;
+    if (use_rt_indirect == 1) ambient = m.albedo * texelFetch(rt_indirect, pixel, 0).rgb;
+    vec3 color = direct + ambient;
+    // Schlick's Fresnel blends the reflection with the (non-emitted) local colour
+    vec3 f0 = mix(vec3(0.04), m.albedo, m.metallic);
+    vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - max(dot(n, v), 0.0), 5.0);
+    if (use_rt_reflection == 1) {
+        vec4 rt = texelFetch(rt_reflection, pixel, 0);
+        if (rt.a > 0.0) color = (1.0 - fresnel) * color + fresnel * rt.rgb;
+    } else if (use_env_reflections == 1 && m.roughness < roughness_threshold) {
+        color = (1.0 - fresnel) * color + fresnel * texture(env_cube, reflect(-v, n)).rgb;
     }
-    radiance = vec4(color, 1.0);
+    radiance = vec4(m.emissive + color, 1.0);
 }

@@ -24,3 +24,43 @@ def expected_point_radiance(positions, albedo, light_pos, intensity, normal=(0, 
     dist2 = (d * d).sum(-1)
     cos = np.clip((d * np.asarray(normal)).sum(-1) / np.sqrt(dist2), 0, None)
     return np.asarray(albedo)[None] / np.pi * (intensity * cos / dist2)[..., None]
+
+
+def parallel_planes(h=1.0):
+    """A floor and a ceiling h metres above it, both 400 m wide (AO test)."""
+    b = SceneBuilder("planes")
+    b.material("grey", (0.5, 0.5, 0.5), roughness=1.0)
+    b.add(grid(4, 4), "grey", trs((0, 0, 0), 0, (400, 1, 400)))
+    b.add(grid(4, 4), "grey", trs((0, h, 0), 0, (400, 1, 400), rotate_x=np.pi))
+    b.light(kind="point", position=(0, h / 2, 0), intensity=1.0)
+    b.view("inside", (0.0, h * 0.5, 0.0), (0.0, 0.0, -2.0), 60)
+    return b.build()
+
+
+def closed_box(albedo=0.5):
+    """A closed 4x3x4 m diffuse room seen from inside, lit by one point light (GI test)."""
+    b = SceneBuilder("box")
+    b.material("wall", (albedo, albedo, albedo), roughness=1.0)
+    b.material("red", (0.8, 0.1, 0.1), roughness=1.0)
+    W, H, D = 4.0, 3.0, 4.0
+    b.add(grid(2, 2), "wall", trs((0, 0, 0), 0, (W, 1, D)))
+    b.add(grid(2, 2), "wall", trs((0, H, 0), 0, (W, 1, D), rotate_x=np.pi))
+    b.add(grid(2, 2), "red", trs((-W / 2, H / 2, 0), np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((W / 2, H / 2, 0), -np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((0, H / 2, -D / 2), 0.0, (W, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((0, H / 2, D / 2), np.pi, (W, 1, H), rotate_x=np.pi / 2))
+    b.box("wall", (0.2, 0.0, -1.2), (1.2, 1.0, -0.2))
+    b.light(kind="point", position=(0.0, 2.5, 0.5), intensity=8.0)
+    b.view("room", (0.0, 1.5, 1.9), (0.0, 1.0, -2.0), 70)
+    return b.build()
+
+
+def mirror_floor(roughness=0.05):
+    """A metallic mirror floor in front of a red emissive wall, camera looking down at the floor."""
+    b = SceneBuilder("mirror")
+    b.material("mirror", (0.95, 0.95, 0.95), roughness=roughness, metallic=1.0)
+    b.material("red_wall", (0.1, 0.1, 0.1), roughness=1.0, emissive=(2.0, 0.1, 0.1))
+    b.add(grid(2, 2), "mirror", trs((0, 0, 0), 0, (20, 1, 20)))
+    b.add(grid(2, 2), "red_wall", trs((0, 2.5, -5), 0.0, (20, 1, 5), rotate_x=np.pi / 2))
+    b.view("down", (0.0, 1.0, 2.0), (0.0, 0.0, -1.0), 50)
+    return b.build()

@@ -24,8 +24,11 @@ class ForwardLightingPass:
     def reset(self) -> None:
         pass
 
-    def execute(self, frame, lights, shadow_info) -> None:
+    def execute(self, frame, lights, shadow_info, rt_inputs: dict | None = None) -> None:
+        """rt_inputs: hybrid textures by name (rt_direct, rt_ao, rt_reflection, rt_indirect)."""
+        rt_inputs = rt_inputs or {}
         opts = frame.options.group("forward")
+        use_ssao = opts.ssao and "rt_ao" not in rt_inputs and "rt_indirect" not in rt_inputs
         ctx = self.ctx
         t = self.targets.ensure(frame.width, frame.height, shared_depth=frame.channels["depth"])
         prog, vao = frame.gpu.vao("geometry.vert", "forward.frag")
@@ -55,13 +58,19 @@ class ForwardLightingPass:
             set_uniform(prog, "ambient_radiance", tuple(map(float, frame.scene.ambient)))
             set_uniform(prog, "ambient_scale", float(opts.ambient))
             textures = {"ambient_lut": lut, "env_cube": cube,
-                        "ssao": frame.channels.get("ssao") if opts.ssao else self.dummy_ao,
+                        "ssao": frame.channels.get("ssao", self.dummy_ao) if use_ssao else self.dummy_ao,
                         "sun_shadow": frame.channels["sun_shadow"], "point_shadow": frame.channels["point_shadow"]}
             for name, tex in textures.items():
                 tex.use(unit)
                 set_uniform(prog, name, unit)
                 unit += 1
-            set_uniform(prog, "use_ssao", int(opts.ssao))
+            for name in ("rt_direct", "rt_ao", "rt_reflection", "rt_indirect"):
+                tex = rt_inputs.get(name, self.dummy_ao)
+                tex.use(unit)
+                set_uniform(prog, name, unit)
+                set_uniform(prog, "use_" + name, int(name in rt_inputs))
+                unit += 1
+            set_uniform(prog, "use_ssao", int(use_ssao))
             set_uniform(prog, "use_env_reflections", int(opts.env_reflections))
             set_uniform(prog, "roughness_threshold", float(opts.roughness_threshold))
             set_uniform(prog, "use_shadows", int(opts.shadow_maps))

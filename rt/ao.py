@@ -1,0 +1,52 @@
+"""Ray-traced ambient occlusion: cosine-weighted rays of length `radius`; AO is the fraction
+that escape (1 = fully open)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.options import opt, register_group
+from rt.sampling import cosine_hemisphere
+
+
+@dataclass
+class AOOptions:
+    radius: float = opt(1.0, "length of the occlusion rays (m)", 1e-4, 1e4)
+    rays_per_pixel: int = opt(1, "occlusion rays per pixel per frame", 1, 64)
+    greyscale: bool = opt(True, "show AO alone; false multiplies it with the albedo")
+
+
+register_group("ao", AOOptions)
+
+
+def ambient_occlusion(rf) -> np.ndarray:
+    s = rf.gb.surface
+    rays = rf.options.get("ao.rays_per_pixel")
+    radius = np.float32(rf.options.get("ao.radius"))
+    rng = rf.rng(2)
+    open_count = np.zeros(len(s), np.float32)
+    for _ in range(rays):
+        d = cosine_hemisphere(s.n, rng.next(2))
+        above = np.einsum("ij,ij->i", d, s.ng) > 0  # below the true surface counts as occluded
+        idx = np.nonzero(above)[0]
+        if idx.size:
+            o = rf.data.offset(s.take(idx), d[idx])
+            open_count[idx] += ~rf.tracer.occluded(o, d[idx], radius)
+    return open_count / rays
+
+
+class AOPass:
+    name = "ao"
+    reads = ("gbuffer",)
+    writes = ("radiance", "rt_ao")
+
+    def reset(self) -> None:
+        pass
+
+    def execute(self, rf) -> dict:
+        ao = ambient_occlusion(rf)
+        out = rf.background()
+        value = ao[:, None] * (1.0 if rf.options.get("ao.greyscale") else rf.gb.surface.albedo)
+        out[rf.gb.index] = np.broadcast_to(value, (len(ao), 3))
+        return {"radiance": out, "rt_ao": rf.full(ao, fill=1.0)}

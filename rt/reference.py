@@ -1,0 +1,93 @@
+"""Reference path tracer: the ground truth for quality metrics.
+
+Multi-bounce, diffuse + mirror-like specular consistent with the passes: surfaces smoother
+than `reflections.roughness_threshold` reflect with Schlick's Fresnel probability and are
+diffuse otherwise; next-event estimation (one light sample + shadow ray) at diffuse vertices;
+emission counted at the camera and after mirror bounces (where NEE cannot reach); Russian
+roulette after `reference.rr_start` bounces."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.options import opt, register_group
+from rt.sampling import cosine_hemisphere
+from rt.shading import INV_PI, LUMA, direct_one, fresnel_schlick, mirror, trace_from
+
+
+@dataclass
+class ReferenceOptions:
+    max_bounces: int = opt(8, "indirect bounces before a path stops", 1, 64)
+    rr_start: int = opt(3, "Russian roulette from this bounce on", 1, 64)
+
+
+register_group("reference", ReferenceOptions)
+
+
+def trace_paths(rf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
+    thr = rf.options.get("reflections.roughness_threshold")
+    n = len(s)
+    radiance = s.emissive.copy()
+    beta = np.ones((n, 3), np.float32)
+    alive = np.arange(n)
+    d_in = view
+    for bounce in range(max_bounces + 1):
+        if not alive.size:
+            break
+        f = np.where((s.roughness < thr)[:, None], fresnel_schlick(s, d_in), 0).astype(np.float32)
+        p_spec = np.clip(f @ LUMA, 0, 1)
+        u = rng.next(1)[:, 0]
+        spec = u < p_spec
+        diff = ~spec
+        w_diff = np.where(diff[:, None], (1 - f) / np.maximum(1 - p_spec, 1e-6)[:, None], 0)
+        # next-event estimation at diffuse vertices
+        di = np.nonzero(diff)[0]
+        if di.size:
+            e = direct_one(rf.data, rf.tracer, s.take(di), rng.subset(di))
+            radiance[alive[di]] += beta[di] * w_diff[di] * s.albedo[di] * INV_PI * e
+        if bounce == max_bounces:
+            break
+        d = np.empty((len(s), 3), np.float32)
+        if di.size:
+            d[di] = cosine_hemisphere(s.n[di], rng.subset(di).next(2))
+        si = np.nonzero(spec)[0]
+        if si.size:
+            d[si] = mirror(d_in[si], s.take(si))
+        beta = np.where(spec[:, None], beta * f / np.maximum(p_spec, 1e-6)[:, None], beta * w_diff * s.albedo)
+        keep = np.einsum("ij,ij->i", d, s.ng) > 0  # diffuse directions below the true surface carry nothing
+        if bounce + 1 >= rr_start:
+            q = np.clip(beta @ LUMA, 0.05, 0.95)
+            keep &= rng.next(1)[:, 0] < q
+            beta = beta / q[:, None]
+        idx = np.nonzero(keep)[0]
+        hit, sh, miss = trace_from(rf.data, rf.tracer, s.take(idx), d[idx])
+        if miss.size:
+            m = idx[miss]
+            radiance[alive[m]] += beta[m] * rf.environment.radiance(d[m])
+        if not hit.size:
+            break
+        h = idx[hit]
+        spec_h = spec[h]
+        radiance[alive[h[spec_h]]] += beta[h[spec_h]] * sh.emissive[spec_h]
+        alive, beta, d_in, s = alive[h], beta[h], d[h], sh
+        rng = rng.subset(h)
+    return radiance
+
+
+class ReferencePass:
+    name = "reference"
+    reads = ("gbuffer",)
+    writes = ("radiance",)
+
+    def reset(self) -> None:
+        pass
+
+    def execute(self, rf) -> dict:
+        s = rf.gb.surface
+        view = rf.gb.view_dir[rf.gb.index]
+        radiance = trace_paths(rf, s, view, rf.rng(5), rf.options.get("reference.max_bounces"),
+                               rf.options.get("reference.rr_start"))
+        out = rf.background()
+        out[rf.gb.index] = radiance
+        return {"radiance": out}

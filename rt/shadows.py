@@ -1,0 +1,45 @@
+"""Ray-traced shadows: a shadow ray to every light per pixel (`all`), or to one light per
+pixel chosen by its contribution there (`one`, unbiased: accumulates to `all`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.options import opt, register_group
+from rt.shading import INV_PI, direct_all, direct_one
+
+
+@dataclass
+class ShadowsOptions:
+    lights: str = opt("all", "shadow rays to all lights per pixel, or to one chosen light", choices=("all", "one"))
+    greyscale: bool = opt(False, "show light and shadow only (albedo = 1, no emission)")
+
+
+register_group("shadows", ShadowsOptions)
+
+
+def direct_irradiance(rf, shadowed: bool = True) -> np.ndarray:
+    """Irradiance x cos at every covered pixel, per shadows.lights."""
+    s = rf.gb.surface
+    estimator = direct_all if rf.options.get("shadows.lights") == "all" else direct_one
+    return estimator(rf.data, rf.tracer, s, rf.rng(1), shadowed)
+
+
+class ShadowsPass:
+    name = "shadows"
+    reads = ("gbuffer",)
+    writes = ("radiance", "rt_direct")
+
+    def reset(self) -> None:
+        pass
+
+    def execute(self, rf) -> dict:
+        s = rf.gb.surface
+        e = direct_irradiance(rf)
+        out = rf.background()
+        if rf.options.get("shadows.greyscale"):
+            out[rf.gb.index] = e * INV_PI
+        else:
+            out[rf.gb.index] = s.emissive + s.albedo * INV_PI * e
+        return {"radiance": out, "rt_direct": rf.full(e)}

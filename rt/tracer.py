@@ -1,0 +1,115 @@
+"""The tracer interface and its Embree backend.
+
+Passes only see `Tracer`: closest hits and occlusion on whole float32 ray arrays. A second
+backend (a GPU one, say) implements the same two methods without touching the passes.
+Embree's `rtcIntersect1` runs without the GIL inside embreex, so rays are split into chunks
+and traced on a thread pool.
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+INF = np.float32(1e30)
+
+
+@dataclass
+class Hits:
+    t: np.ndarray  # (N,) float32, INF on a miss
+    prim: np.ndarray  # (N,) int32, -1 on a miss
+    u: np.ndarray  # (N,) float32 barycentric of vertex 1
+    v: np.ndarray  # (N,) float32 barycentric of vertex 2
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.prim >= 0
+
+
+class Tracer:
+    """What a pass may ask of a ray tracer."""
+
+    rays_traced: int = 0
+
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray, tmax: np.ndarray | float | None = None) -> Hits:
+        raise NotImplementedError
+
+    def occluded(self, origins: np.ndarray, dirs: np.ndarray, tmax: np.ndarray | float) -> np.ndarray:
+        """(N,) bool: something lies between origin and origin + tmax * dir."""
+        raise NotImplementedError
+
+
+def default_threads() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+
+
+class EmbreeTracer(Tracer):
+    def __init__(self, positions: np.ndarray, indices: np.ndarray, threads: int | None = None,
+                 chunks_per_thread: int = 4, min_chunk: int = 4096):
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+
+        self.scene = rtcs.EmbreeScene()
+        self._mesh = TriangleMesh(self.scene, np.ascontiguousarray(positions, np.float32),
+                                  np.ascontiguousarray(indices, np.int32))
+        self.threads = threads or default_threads()
+        self.chunks_per_thread = chunks_per_thread
+        self.min_chunk = min_chunk
+        self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self.rays_traced = 0
+        # commit (build the BVH) now rather than inside the first frame
+        self.scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), query="OCCLUDED")
+
+    def _chunks(self, n: int) -> list[slice]:
+        count = max(1, min(self.threads * self.chunks_per_thread, n // self.min_chunk))
+        bounds = np.linspace(0, n, count + 1).astype(int)
+        return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b > a]
+
+    def _map(self, fn, n: int) -> None:
+        chunks = self._chunks(n)
+        if self.pool is None or len(chunks) == 1:
+            for c in chunks:
+                fn(c)
+        else:
+            list(self.pool.map(fn, chunks))
+
+    def intersect(self, origins, dirs, tmax=None) -> Hits:
+        o = np.ascontiguousarray(origins, np.float32)
+        d = np.ascontiguousarray(dirs, np.float32)
+        n = o.shape[0]
+        t = np.empty(n, np.float32)
+        prim = np.empty(n, np.int32)
+        u = np.empty(n, np.float32)
+        v = np.empty(n, np.float32)
+        dist = None if tmax is None else np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)), np.float32)
+
+        def work(c: slice):
+            r = self.scene.run(o[c], d[c], dists=None if dist is None else dist[c].copy(), output=1)
+            t[c], prim[c], u[c], v[c] = r["tfar"], r["primID"], r["u"], r["v"]
+
+        if n:
+            self._map(work, n)
+        t[prim < 0] = INF
+        self.rays_traced += n
+        return Hits(t, prim, u, v)
+
+    def occluded(self, origins, dirs, tmax) -> np.ndarray:
+        o = np.ascontiguousarray(origins, np.float32)
+        d = np.ascontiguousarray(dirs, np.float32)
+        n = o.shape[0]
+        dist = np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)), np.float32).copy()
+        out = np.empty(n, bool)
+
+        def work(c: slice):
+            out[c] = self.scene.run(o[c], d[c], dists=dist[c].copy(), query="OCCLUDED") >= 0
+
+        if n:
+            self._map(work, n)
+        self.rays_traced += n
+        return out
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=False)
