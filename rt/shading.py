@@ -17,6 +17,8 @@ from rt.tracer import Hits, Tracer
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 INV_PI = np.float32(1 / np.pi)
 KINDS = {"point": 0, "spot": 1, "directional": 2}
+MAX_WEIGHTED_LIGHTS = 64  # up to this many lights, one-light picks weigh every light's contribution
+WEIGHT_BLOCK = 32768
 
 
 @dataclass
@@ -126,33 +128,32 @@ class LightSet:
         self.cos_outer = np.cos([li.outer_cone for li in lights]).astype(np.float32)
         self.cos_inner = np.cos([li.inner_cone for li in lights]).astype(np.float32)
         self.angular_radius = np.array([li.angular_radius for li in lights], np.float32)
-        tris = scene.emissive_triangles()
-        self.emissive_tris = tris
-        if tris.size:
+        # each emissive cluster is one light; within it a triangle is picked ~ area x power
+        self.clusters = []
+        for tris in scene.emissive_clusters():
             le = data.emissive[data.material_ids[tris]]
-            weight = data.tri_area[tris] * np.maximum(le @ LUMA, 0)
-            self.emissive_le = le
+            weight = data.tri_area[tris].astype(np.float64) * np.maximum(le @ LUMA, 0)
             total = weight.sum()
-            self.emissive_power = float(total * np.pi)
-            self.emissive_cdf = np.cumsum(weight) / total if total > 0 else None
-            self.emissive_pmf = (weight / total).astype(np.float32) if total > 0 else None
-            self.emissive_double = np.array([scene.materials[m].double_sided for m in data.material_ids[tris]])
-        else:
-            self.emissive_cdf = None
-            self.emissive_power = 0.0
-        self.has_emissive = self.emissive_cdf is not None
+            if total <= 0:
+                continue
+            self.clusters.append({
+                "tris": tris, "le": le, "cdf": np.cumsum(weight) / total, "pmf": (weight / total).astype(np.float32),
+                "double": np.array([scene.materials[m].double_sided for m in data.material_ids[tris]]),
+                "power": float(total * np.pi),
+            })
+        self.has_emissive = bool(self.clusters)
 
     @property
     def count(self) -> int:
-        """Analytic lights, plus one for all emissive triangles together."""
-        return self.count_analytic + int(self.has_emissive)
+        """Analytic lights, plus one per emissive cluster."""
+        return self.count_analytic + len(self.clusters)
 
     def sample(self, k: int, s: Surface, u: np.ndarray):
         """Light k seen from surface points. Returns (dir, dist, E): unit direction to the light,
         the distance to test for occlusion, and irradiance x cos at the surface (N,3), i.e.
         radiance out = albedo/pi * E for a diffuse surface when unoccluded."""
         if k >= self.count_analytic:
-            return self._sample_emissive(s, u)
+            return self._sample_emissive(self.clusters[k - self.count_analytic], s, u)
         kind = self.kind[k]
         n = len(s)
         if kind == 2:  # sun
@@ -177,25 +178,24 @@ class LightSet:
         e = np.where(front[:, None], e * np.maximum(cos, 0)[:, None], 0).astype(np.float32)
         return ldir, dist.astype(np.float32), e
 
-    def _sample_emissive(self, s: Surface, u: np.ndarray):
+    def _sample_emissive(self, c: dict, s: Surface, u: np.ndarray):
         data = self.data
-        pick = np.minimum(np.searchsorted(self.emissive_cdf, u[:, 0], side="right"), len(self.emissive_tris) - 1)
-        tri = self.emissive_tris[pick]
-        su = np.sqrt(u[:, 1])
-        b1, b2 = (1 - su), u[:, 2] * su
+        pick = np.minimum(np.searchsorted(c["cdf"], u[:, 0], side="right"), len(c["tris"]) - 1)
+        tri = c["tris"][pick]
+        su = np.sqrt(u[:, 1])  # uniform point on the triangle
         v = data.positions[data.indices[tri]]
-        q = v[:, 0] * b1[:, None] + v[:, 1] * (su * (1 - u[:, 2]))[:, None] + v[:, 2] * b2[:, None]
+        q = v[:, 0] * (1 - su)[:, None] + v[:, 1] * (su * (1 - u[:, 2]))[:, None] + v[:, 2] * (su * u[:, 2])[:, None]
         d = q - s.p
         dist2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
         dist = np.sqrt(dist2)
         ldir = (d / dist[:, None]).astype(np.float32)
         cos_l = -np.einsum("ij,ij->i", data.face_normals[tri], ldir)
-        cos_l = np.where(self.emissive_double[pick], np.abs(cos_l), np.maximum(cos_l, 0))
+        cos_l = np.where(c["double"][pick], np.abs(cos_l), np.maximum(cos_l, 0))
         cos_s = np.einsum("ij,ij->i", s.n, ldir)
         front = (cos_s > 0) & (np.einsum("ij,ij->i", s.ng, ldir) > 0)
-        pdf_area = self.emissive_pmf[pick] / np.maximum(data.tri_area[tri], 1e-20)
+        pdf_area = c["pmf"][pick] / np.maximum(data.tri_area[tri], 1e-20)
         g = cos_l * np.maximum(cos_s, 0) / dist2 / np.maximum(pdf_area, 1e-20)
-        e = np.where(front[:, None], self.emissive_le[pick] * g[:, None], 0).astype(np.float32)
+        e = np.where(front[:, None], c["le"][pick] * g[:, None], 0).astype(np.float32)
         # stop short of the emitter itself
         return ldir, (dist * (1 - 1e-4) - data.eps).astype(np.float32), e
 
@@ -205,8 +205,7 @@ class LightSet:
         for k in range(self.count_analytic):
             lum = float(self.radiance[k] @ LUMA)
             w.append(lum * (4 * np.pi if self.kind[k] != 2 else self.data.scene.diagonal ** 2))
-        if self.has_emissive:
-            w.append(self.emissive_power)
+        w += [c["power"] for c in self.clusters]
         w = np.asarray(w, np.float64)
         return w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / max(len(w), 1))
 
@@ -238,32 +237,36 @@ def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
 
 def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
     """Irradiance x cos from ONE light per point, chosen with probability ~ its unshadowed
-    contribution there (~ its power when there are many lights); divided by that probability,
-    so the mean over frames equals direct_all."""
+    contribution there (~ its power when there are very many lights); divided by that
+    probability, so the mean over frames equals direct_all."""
     lights = data.lights
     n, count = len(s), lights.count
     if count == 0 or n == 0:
         return np.zeros((n, 3), np.float32)
     u_pick = rng.next(1)[:, 0]
     u = rng.next(3)
-    if count <= 32:
-        samples = [lights.sample(k, s, u) for k in range(count)]
-        w = np.stack([e @ LUMA for _, _, e in samples], 1)
-        wsum = w.sum(1)
-        cdf = np.cumsum(w, 1) / np.maximum(wsum, 1e-30)[:, None]
-        pick = np.minimum((cdf < u_pick[:, None]).sum(1), count - 1)
-        rows = np.arange(n)
-        prob = w[rows, pick] / np.maximum(wsum, 1e-30)
-        ldir = np.stack([x[0] for x in samples], 1)[rows, pick]
-        dist = np.stack([x[1] for x in samples], 1)[rows, pick]
-        e = np.stack([x[2] for x in samples], 1)[rows, pick]
+    ldir = np.zeros((n, 3), np.float32)
+    dist = np.zeros(n, np.float32)
+    e = np.zeros((n, 3), np.float32)
+    prob = np.zeros(n, np.float32)
+    if count <= MAX_WEIGHTED_LIGHTS:
+        for lo in range(0, n, WEIGHT_BLOCK):  # blocks bound the (points x lights) memory
+            blk = slice(lo, min(n, lo + WEIGHT_BLOCK))
+            sb = s.take(blk)
+            samples = [lights.sample(k, sb, u[blk]) for k in range(count)]
+            w = np.stack([x[2] @ LUMA for x in samples], 1)
+            wsum = w.sum(1)
+            cdf = np.cumsum(w, 1) / np.maximum(wsum, 1e-30)[:, None]
+            pick = np.minimum((cdf < u_pick[blk, None]).sum(1), count - 1)
+            rows = np.arange(pick.size)
+            prob[blk] = w[rows, pick] / np.maximum(wsum, 1e-30)
+            ldir[blk] = np.stack([x[0] for x in samples], 1)[rows, pick]
+            dist[blk] = np.stack([x[1] for x in samples], 1)[rows, pick]
+            e[blk] = np.stack([x[2] for x in samples], 1)[rows, pick]
     else:
         pw = lights.power_weights()
         pick = np.minimum(np.searchsorted(np.cumsum(pw), u_pick, side="right"), count - 1)
-        prob = pw[pick].astype(np.float32)
-        ldir = np.zeros((n, 3), np.float32)
-        dist = np.zeros(n, np.float32)
-        e = np.zeros((n, 3), np.float32)
+        prob[:] = pw[pick]
         for k in np.unique(pick):
             sel = np.nonzero(pick == k)[0]
             ldir[sel], dist[sel], e[sel] = lights.sample(int(k), s.take(sel), u[sel])

@@ -153,6 +153,35 @@ class Scene:
             return np.zeros(0, np.int64)
         return np.nonzero(flags[self.material_ids])[0]
 
+    def emissive_clusters(self, max_clusters: int = 32) -> list[np.ndarray]:
+        """Emissive triangles grouped by material and grid cell, the grid as fine as keeps at most
+        `max_clusters` groups: each group is one light for the rasteriser's proxies and the
+        tracer's light sampling."""
+        if getattr(self, "_clusters", None) is not None and self._clusters[0] == max_clusters:
+            return self._clusters[1]
+        groups = []
+        for cells in (24, 16, 12, 8, 6, 4, 3, 2, 1):
+            groups = self._emissive_grid(cells)
+            if len(groups) <= max_clusters:
+                break
+        self._clusters = (max_clusters, groups)
+        return groups
+
+    def _emissive_grid(self, cells: int) -> list[np.ndarray]:
+        tris = self.emissive_triangles()
+        if tris.size == 0:
+            return []
+        centre = self.positions[self.indices[tris]].astype(np.float64).mean(axis=1)
+        lo, hi = self.bounds()
+        size = max(float(np.max(hi - lo)) / cells, 1e-6)
+        cell = np.clip(np.floor((centre - lo) / size).astype(np.int64), 0, cells)
+        key = ((cell[:, 0] * (cells + 1) + cell[:, 1]) * (cells + 1) + cell[:, 2]) * len(self.materials)
+        key = key + self.material_ids[tris]  # never merge different materials
+        _, inverse = np.unique(key, return_inverse=True)
+        order = np.argsort(inverse, kind="stable")
+        splits = np.nonzero(np.diff(inverse[order]))[0] + 1
+        return [tris[g] for g in np.split(order, splits)]
+
     def triangle_areas(self, tris: np.ndarray | None = None) -> np.ndarray:
         idx = self.indices if tris is None else self.indices[tris]
         p = self.positions

@@ -24,42 +24,29 @@ CUBE_FACES = (
 )
 
 
-def emissive_proxy_lights(scene: Scene, cells: int = 24) -> list[dict]:
-    """Emissive triangles grouped on a coarse grid into point lights, the way engines
-    approximate area emitters. Each proxy: position, normal, intensity I0 (W/sr) and flatness.
+def emissive_proxy_lights(scene: Scene) -> list[dict]:
+    """Each emissive cluster as one point light, the way engines approximate area emitters.
+    Each proxy: position, normal, intensity I0 (W/sr) and flatness.
 
     A flat emitter of area A and radiance Le has I(w) = Le A cos; a closed one (a bulb) has
     I = Le A / 4 in every direction; flatness = |sum A n| / sum A blends the two.
     """
-    tris = scene.emissive_triangles()
-    if tris.size == 0:
-        return []
-    p = scene.positions[scene.indices[tris]].astype(np.float64)
-    centre = p.mean(axis=1)
-    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    area = 0.5 * np.linalg.norm(cross, axis=1)
-    normal = cross / np.maximum(2 * area, 1e-20)[:, None]
-    le = np.array([scene.materials[m].emissive for m in scene.material_ids[tris]], np.float64)
-    lo, hi = scene.bounds()
-    size = max(float(np.max(hi - lo)) / cells, 1e-6)
-    key = np.floor((centre - lo) / size).astype(np.int64)
-    key = (key[:, 0] * cells * 4 + key[:, 1]) * cells * 4 + key[:, 2]
-    key = key * 4096 + scene.material_ids[tris]  # never merge different materials
-    uniq, inv = np.unique(key, return_inverse=True)
     out = []
-    for g in range(uniq.size):
-        sel = inv == g
-        a = area[sel]
-        total = a.sum()
+    for tris in scene.emissive_clusters():
+        p = scene.positions[scene.indices[tris]].astype(np.float64)
+        cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        area = 0.5 * np.linalg.norm(cross, axis=1)
+        total = area.sum()
         if total <= 0:
             continue
-        pos = (centre[sel] * a[:, None]).sum(0) / total
-        nsum = (normal[sel] * a[:, None]).sum(0)
+        normal = cross / np.maximum(2 * area, 1e-20)[:, None]
+        le = np.array([scene.materials[m].emissive for m in scene.material_ids[tris]], np.float64)
+        pos = (p.mean(axis=1) * area[:, None]).sum(0) / total
+        nsum = (normal * area[:, None]).sum(0)
         flat = float(np.linalg.norm(nsum) / total)
-        nrm = nsum / max(np.linalg.norm(nsum), 1e-20)
-        power = (le[sel] * a[:, None]).sum(0)  # sum Le A per channel
-        i0 = power * (flat + (1 - flat) / 4)
-        out.append({"position": pos, "normal": nrm, "intensity": i0, "flatness": flat})
+        power = (le * area[:, None]).sum(0)  # sum Le A per channel
+        out.append({"position": pos, "normal": nsum / max(np.linalg.norm(nsum), 1e-20),
+                    "intensity": power * (flat + (1 - flat) / 4), "flatness": flat})
     return out
 
 

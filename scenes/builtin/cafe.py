@@ -17,7 +17,7 @@ SHADE = [(0.02, 0.0), (0.05, -0.02), (0.2, -0.2), (0.19, -0.2), (0.04, -0.03)]
 def build(detail: int = 1):
     b = SceneBuilder("cafe", seed=3)
     b.environment.kind = "black"
-    b.ambient = (0.03, 0.024, 0.018)  # what an artist would set for the raster baseline
+    b.ambient = (0.06, 0.045, 0.03)  # what an artist would set for the raster baseline
     rng = b.rng
     W, D, H = 10.0, 8.0, 3.2
     n = 64 * detail
@@ -35,8 +35,8 @@ def build(detail: int = 1):
     b.material("cutlery", (0.9, 0.9, 0.88), roughness=0.15, metallic=1.0)
     b.material("cup", (0.9, 0.88, 0.84), roughness=0.3)
     b.material("shade", (0.15, 0.3, 0.25), roughness=0.4, metallic=0.5)
-    b.material("lamp", (1, 1, 1), emissive=(12.0, 9.0, 5.0))
-    b.material("strip", (1, 1, 1), emissive=(6.0, 4.5, 2.5))
+    b.material("lamp", (1, 1, 1), emissive=(150.0, 110.0, 60.0))
+    b.material("strip", (1, 1, 1), emissive=(40.0, 30.0, 16.0))
     b.material("screen", (0.02, 0.02, 0.02), roughness=0.2, emissive=(1.2, 1.6, 2.2))
     b.material("cushion", (0.5, 0.1, 0.12), roughness=0.9)
 
