@@ -2,6 +2,8 @@
 scene -> G-buffer -> pass -> accumulation -> display. Dirty frames reset accumulation."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from app.camera import Camera
@@ -33,6 +35,34 @@ class RayTracing:
 
     def close(self) -> None:
         self.tracer.close()
+
+
+@dataclass
+class Job:
+    """One frame between prepare() and finish(); the CPU part runs in compute()."""
+
+    frame: Frame
+    state: tuple
+    pass_name: str
+    cpu: bool = False
+    readback: dict | None = None
+    result: dict | None = None
+
+
+def rt_channel(rf, frame: Frame, channel: str) -> np.ndarray:
+    """A G-buffer channel view from the CPU G-buffer (`gbuffer=rt`)."""
+    gb, s = rf.gb, rf.gb.surface
+    values = {"albedo": s.albedo, "normal": s.n, "position": s.p, "roughness": s.roughness[:, None],
+              "emissive": s.emissive, "depth": gb.depth[gb.index][:, None]}
+    if channel == "motion":
+        clip = np.c_[s.p, np.ones(len(s))] @ frame.view_proj(frame.prev_camera).T
+        ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
+        px_prev = (ndc * 0.5 + 0.5) * [frame.width, frame.height]
+        y, x = np.divmod(gb.index, frame.width)
+        px_now = np.stack([x + 0.5, frame.height - (y + 0.5)], 1)
+        values["motion"] = np.c_[px_now - px_prev, np.zeros(len(s))]
+    v = values[channel]
+    return rf.full(np.broadcast_to(v, (len(s), 3)) if v.shape[1] == 1 else v)
 
 
 class Renderer:
@@ -94,44 +124,91 @@ class Renderer:
         return pass_name == "forward" or pass_name in CHANNEL_VIEWS
 
     def render(self, camera: Camera, width: int, height: int, pass_name: str = "forward") -> Frame:
+        """Render one frame synchronously (prepare on the GL thread, compute, finish)."""
+        job = self.prepare(camera, width, height, pass_name)
+        if job is None:
+            return self.frame
+        self.compute(job)
+        return self.finish(job)
+
+    def state_of(self, camera: Camera, width: int, height: int, pass_name: str) -> tuple:
+        """Everything whose change makes a frame dirty (and resets accumulation)."""
+        return (id(self.scene), camera.state(), width, height, pass_name, self.options.state(), self.seed)
+
+    def prepare(self, camera: Camera, width: int, height: int, pass_name: str = "forward") -> Job | None:
+        """GL work before the CPU part: G-buffer, raster passes. None: the last frame still holds."""
         check_pass(pass_name)
-        state = (id(self.scene), camera.state(), width, height, pass_name, self.options.state(), self.seed)
+        state = self.state_of(camera, width, height, pass_name)
         if (self.reuse_static_frames and state == self._state and self.frame is not None
                 and self.deterministic(pass_name)):
-            return self.frame  # nothing would change
+            return None
         if state != self._state:
             self.accumulation.reset()
             self._state = state
         self.profiler.begin_frame()
         frame = Frame(self.ctx, self.scene, self.gpu, camera, self.prev_camera or camera, width, height, self.options,
                       self.profiler, self.environment(), self.accumulation.count, self.seed)
-        mapping = None
+        job = Job(frame, state, pass_name)
         rt_gbuffer = self.options.get("gbuffer") == "rt"
         if pass_name == "forward":
             self.gbuffer.execute(frame)
             self._forward(frame)
-        elif pass_name == "hybrid":
+        elif pass_name in CHANNEL_VIEWS and not rt_gbuffer:
             self.gbuffer.execute(frame)
-            self._hybrid(frame)
-        elif pass_name in CHANNEL_VIEWS:
-            if rt_gbuffer:
-                self._rt_channel_view(frame, pass_name)
-            else:
+            self.channel_view.execute(frame, pass_name)
+        else:  # CPU work follows: keep what the G-buffer gives, trace later
+            raster = pass_name == "hybrid" or not rt_gbuffer
+            if raster:
                 self.gbuffer.execute(frame)
-                self.channel_view.execute(frame, pass_name)
-            mapping = display_mapping(pass_name, self.scene, camera)
+                with self.profiler.cpu("gbuffer_readback"):
+                    job.readback = {name: read_rgba(frame.channels[name]) for name in
+                                    ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
+            self.ray_tracing()
+            job.cpu = True
+        return job
+
+    def compute(self, job: Job) -> None:
+        """The CPU part of a frame (ray tracing); safe to run on a worker thread."""
+        if not job.cpu:
+            return
+        from rt.frame import RtFrame
+        from rt.gbuffer import from_raster, trace_primary
+
+        frame, rt = job.frame, self.ray_tracing()
+        rays0 = rt.tracer.rays_traced
+        if job.readback is not None:
+            gb = from_raster(job.readback, frame.camera, frame.width, frame.height)
         else:
-            rf = self._rt_frame(frame)
-            rays0 = rf.tracer.rays_traced
-            with self.profiler.cpu(pass_name):
-                out = self.rt_passes[pass_name].execute(rf)
-            self.profiler.count("rays", rf.tracer.rays_traced - rays0)
-            frame.channels["radiance"] = self._upload(frame, "radiance", out["radiance"])
-        out_tex = self.accumulation.execute(frame, frame.channels["radiance"], bool(self.options.get("accumulate")),
-                                            int(self.options.get("max_frames")))
-        fxaa = pass_name in ("forward", "hybrid") and self.options.get("forward.fxaa")
-        self.display.execute(frame, out_tex, self.options.get("exposure"), fxaa, mapping)
-        self.prev_camera = camera.copy()
+            with self.profiler.cpu("gbuffer_rt"):
+                gb = trace_primary(rt.data, rt.tracer, frame.camera, frame.width, frame.height)
+        rf = RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index)
+        if job.pass_name in CHANNEL_VIEWS:
+            job.result = {"radiance": rt_channel(rf, frame, job.pass_name)}
+        elif job.pass_name == "hybrid":
+            from rt.hybrid import hybrid_components
+
+            with self.profiler.cpu("hybrid_rt"):
+                job.result = hybrid_components(rf)
+        else:
+            with self.profiler.cpu(job.pass_name):
+                job.result = self.rt_passes[job.pass_name].execute(rf)
+        self.profiler.count("rays", rt.tracer.rays_traced - rays0)
+
+    def finish(self, job: Job) -> Frame:
+        """GL work after the CPU part: uploads, accumulation, tone mapping."""
+        frame = job.frame
+        if job.cpu:
+            if job.pass_name == "hybrid":
+                textures = {name: self._upload(frame, name, img) for name, img in job.result.items()}
+                self._forward(frame, textures)
+            else:
+                frame.channels["radiance"] = self._upload(frame, "radiance", job.result["radiance"])
+        mapping = display_mapping(job.pass_name, self.scene, frame.camera) if job.pass_name in CHANNEL_VIEWS else None
+        out = self.accumulation.execute(frame, frame.channels["radiance"], bool(self.options.get("accumulate")),
+                                        int(self.options.get("max_frames")))
+        fxaa = job.pass_name in ("forward", "hybrid") and self.options.get("forward.fxaa")
+        self.display.execute(frame, out, self.options.get("exposure"), fxaa, mapping)
+        self.prev_camera = frame.camera.copy()
         self.frame = frame
         return frame
 
@@ -147,54 +224,6 @@ class Renderer:
         if opts.ssao and "rt_ao" not in rt_inputs and "rt_indirect" not in rt_inputs:
             self.ssao.execute(frame)
         self.forward.execute(frame, lights, info, rt_inputs)
-
-    def _hybrid(self, frame: Frame) -> None:
-        from rt.hybrid import hybrid_components
-
-        rf = self._rt_frame(frame, raster_done=True)
-        rays0 = rf.tracer.rays_traced
-        with self.profiler.cpu("hybrid_rt"):
-            parts = hybrid_components(rf)
-        self.profiler.count("rays", rf.tracer.rays_traced - rays0)
-        textures = {name: self._upload(frame, name, img) for name, img in parts.items()}
-        self._forward(frame, textures)
-
-    # -- ray tracing ---------------------------------------------------------------------------
-    def _rt_frame(self, frame: Frame, raster_done: bool = False):
-        from rt.frame import RtFrame
-        from rt.gbuffer import from_raster, trace_primary
-
-        rt = self.ray_tracing()
-        if self.options.get("gbuffer") == "rt" and not raster_done:
-            rays0 = rt.tracer.rays_traced
-            with self.profiler.cpu("gbuffer_rt"):
-                gb = trace_primary(rt.data, rt.tracer, frame.camera, frame.width, frame.height)
-            self.profiler.count("rays", rt.tracer.rays_traced - rays0)
-        else:
-            if not raster_done:
-                self.gbuffer.execute(frame)
-            with self.profiler.cpu("gbuffer_readback"):
-                chans = {name: read_rgba(frame.channels[name]) for name in
-                         ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
-                gb = from_raster(chans, frame.camera, frame.width, frame.height)
-        return RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index)
-
-    def _rt_channel_view(self, frame: Frame, channel: str) -> None:
-        rf = self._rt_frame(frame)
-        gb, s = rf.gb, rf.gb.surface
-        values = {"albedo": s.albedo, "normal": s.n, "position": s.p, "roughness": s.roughness[:, None],
-                  "emissive": s.emissive, "depth": gb.depth[gb.index][:, None]}
-        if channel == "motion":
-            prev = frame.prev_camera
-            clip = np.c_[s.p, np.ones(len(s))] @ frame.view_proj(prev).T
-            ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
-            px_prev = (ndc * 0.5 + 0.5) * [frame.width, frame.height]
-            y, x = np.divmod(gb.index, frame.width)
-            px_now = np.stack([x + 0.5, frame.height - (y + 0.5)], 1)
-            values["motion"] = np.c_[px_now - px_prev, np.zeros(len(s))]
-        v = values[channel]
-        img = rf.full(np.broadcast_to(v, (len(s), 3)) if v.shape[1] == 1 else v)
-        frame.channels["radiance"] = self._upload(frame, "radiance", img)
 
     def _upload(self, frame: Frame, name: str, image: np.ndarray):
         with self.profiler.cpu("upload"):

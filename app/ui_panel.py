@@ -172,7 +172,10 @@ class Panel:
                     imgui.text(text)
             imgui.end_table()
         rays = prof.counters.get("rays", 0)
-        if rays and v.frame_times:
-            imgui.text(f"{rays / 1e6:.2f} Mrays/frame, {rays / max(v.frame_times[-1], 1e-6) / 1e3:.2f} Mrays/s")
+        if rays:
+            ms = sum(prof.frame.values())  # every pass of the last rendered frame
+            imgui.text(f"{rays / 1e6:.2f} Mrays/frame, {rays / max(ms, 1e-6) / 1e3:.2f} Mrays/s")
+        if v.future is not None:
+            imgui.text_colored((1.0, 0.8, 0.3, 1.0), "tracing the next frame...")
         imgui.end()
 

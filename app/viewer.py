@@ -12,6 +12,7 @@ import os
 import sys
 import time
 from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -69,6 +70,10 @@ class Viewer:
         self.resolution_scale = 1.0  # of the window, for every frame
         self.motion_scale = 0.5  # extra scale while the camera moves, so flying stays interactive
         self.moving = False
+        # ray-traced frames compute on a worker thread; the window keeps drawing the last image
+        self.pool = ThreadPoolExecutor(1, thread_name_prefix="rtlab-trace")
+        self.job = None
+        self.future = None
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
         self.show_ui = True
         self.show_profiler = True
@@ -98,8 +103,18 @@ class Viewer:
     def request_scene(self, spec: str) -> None:
         self.pending_scene = spec
 
+    def _drop_job(self) -> None:
+        """Wait for the frame being traced and discard it (its scene or state is going away)."""
+        if self.future is not None:
+            try:
+                self.future.result()
+            except Exception:  # noqa: BLE001 - its error no longer matters
+                pass
+        self.job = self.future = None
+
     def _load_pending_scene(self) -> None:
         spec, self.pending_scene = self.pending_scene, None
+        self._drop_job()
         try:
             scene = load_scene(spec)
         except UserError as e:
@@ -189,7 +204,7 @@ class Viewer:
                 self.go_to_view(names[k])
 
     # -- loop ------------------------------------------------------------------------------
-    def frame(self, dt: float) -> None:
+    def frame(self, dt: float, start_new: bool = True) -> None:
         imgui, glfw = self.imgui, self.glfw
         self.fb_size = glfw.get_framebuffer_size(self.window)
         imgui.backends.opengl3_new_frame()
@@ -211,10 +226,10 @@ class Viewer:
             scale = self.resolution_scale * (self.motion_scale if self.moving else 1.0)
             rw, rh = max(1, int(w * scale)), max(1, int(h * scale))
             try:
-                self.renderer.render(self.fly.camera, rw, rh, self.pass_name)
+                self._render(rw, rh, start_new)
             except UserError as e:
                 self.panel.error = str(e)
-            else:
+            if self.renderer.frame is not None:
                 self.ctx.screen.use()
                 self.ctx.screen.viewport = (0, 0, w, h)
                 prog, vao = fullscreen(self.ctx, "blit.frag")
@@ -224,6 +239,34 @@ class Viewer:
                 set_uniform(prog, "image", 0)
                 vao.render(vertices=3)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+
+    def _render(self, width: int, height: int, start_new: bool = True) -> None:
+        """Start, collect or skip a frame without ever blocking on ray tracing."""
+        r = self.renderer
+        if self.future is not None:
+            if not self.future.done():
+                return
+            job, future = self.job, self.future
+            self.job = self.future = None
+            future.result()  # re-raise a tracing error here
+            if job.state == r.state_of(self.fly.camera, width, height, self.pass_name) and job.state == r._state:
+                r.finish(job)
+            # else the camera, size or an option changed while tracing: the frame is stale
+        if not start_new:
+            return
+        job = r.prepare(self.fly.camera, width, height, self.pass_name)
+        if job is None:
+            return
+        if job.cpu:
+            self.job, self.future = job, self.pool.submit(r.compute, job)
+        else:
+            r.finish(job)
+
+    def wait_for_frame(self) -> None:
+        """Block until the frame being traced is shown (tests, --exit-after)."""
+        if self.future is not None:
+            self.future.result()
+            self.frame(0.0, start_new=False)
 
     def run(self, exit_after: int = 0, screenshot: str | None = None) -> int:
         glfw = self.glfw
@@ -237,6 +280,7 @@ class Viewer:
             self.frame_times.append(dt * 1e3)
             frames += 1
             if exit_after and frames >= exit_after:
+                self.wait_for_frame()
                 if screenshot:
                     self.screenshot(screenshot)
                 break
@@ -244,6 +288,8 @@ class Viewer:
         return 0
 
     def close(self) -> None:
+        self._drop_job()
+        self.pool.shutdown(wait=True)
         imgui = self.imgui
         imgui.backends.opengl3_shutdown()
         imgui.backends.glfw_shutdown()

@@ -38,7 +38,8 @@ def run_check(name: str, timeout: int = 600):
 
 @pytest.mark.parametrize("name", ["every_mode_renders_in_a_window", "failed_scene_load_keeps_the_old_scene",
                                   "minimise_to_zero_size_does_not_crash",
-                                  "keys_move_the_camera_and_reset_accumulation"])
+                                  "keys_move_the_camera_and_reset_accumulation",
+                                  "ray_tracing_does_not_block_the_window"])
 def test_window_behaviour(display, name):
     if name.startswith("keys") and shutil.which("xdotool") is None:
         pytest.skip("xdotool not installed")

@@ -26,7 +26,8 @@ def test_every_mode_renders_in_a_window():
             v.pass_name = name
             for _ in range(2):
                 v.frame(0.016)
-            assert v.renderer.frame is not None
+            v.wait_for_frame()
+            assert v.renderer.frame is not None and v.renderer.frame.channels.get("display") is not None
             assert np.isfinite(v.renderer.read_linear()).all(), name
     finally:
         v.close()
@@ -100,6 +101,22 @@ def test_keys_move_the_camera_and_reset_accumulation():
         t.join()
         assert np.linalg.norm(v.fly.camera.eye - start) > 0.01, "W did not move the camera"
         assert moved_count == 1, "accumulation did not reset when the camera moved"
+    finally:
+        v.close()
+
+
+def test_ray_tracing_does_not_block_the_window():
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(scene="cafe", pass_name="gi", size="480x300"))
+    try:
+        v.frame(0.016)
+        assert v.future is not None, "no frame is being traced"
+        v.frame(0.016)  # returns at once: the window keeps drawing while the worker traces
+        v.frame(0.016)
+        assert not v.future.done(), "the UI thread waited for the tracer"
+        v.wait_for_frame()
+        assert v.renderer.frame is not None and v.renderer.frame_count == 1
     finally:
         v.close()
 
