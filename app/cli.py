@@ -45,17 +45,24 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--exit-after", type=int, default=0, metavar="N", help="render N frames, then exit")
     s.add_argument("--screenshot", metavar="FILE.png", help="save the window (with the UI) before exiting")
 
-    s = sub.add_parser("bench", help="benchmark techniques per scene")
-    s.add_argument("--scenes")
-    s.add_argument("--configs")
-    s.add_argument("--size", default="1280x720")
-    s.add_argument("--seconds", type=float)
-    s.add_argument("--frames", type=int)
-    s.add_argument("--out", default="bench")
-    s.add_argument("--quick", action="store_true")
+    s = sub.add_parser("bench", help="benchmark techniques per scene: frame times, quality, recommendations")
+    s.add_argument("--scenes", help="comma-separated built-in names or files (default: the five built-ins)")
+    s.add_argument("--configs", help="comma-separated configurations (default: all; see README)")
+    s.add_argument("--size", default="1280x720", help="timing resolution (default 1280x720)")
+    s.add_argument("--seconds", type=float, help="timed seconds per configuration (default 5)")
+    s.add_argument("--frames", type=int, help="timed frames per configuration (instead of --seconds)")
+    s.add_argument("--camera", help="a named view or camera string (default: each scene's first view)")
+    s.add_argument("--quality-size", help="resolution of the quality measurement (default: a quarter of --size)")
+    s.add_argument("--reference-frames", type=int, help="frames of the converged reference (default 256)")
+    s.add_argument("--quality-frames", type=int, help="accumulated frames for the bias measurement (default 32)")
+    s.add_argument("--no-quality", action="store_true", help="time only (no reference, FLIP, PSNR)")
+    s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")
+    s.add_argument("--out", default="bench", help="output folder (default ./bench)")
+    s.add_argument("--quick", action="store_true", help="small smoke run: 160x90, 2 frames, small reference")
 
     s = sub.add_parser("report", help="write tables, plots and recommendations from a bench folder")
     s.add_argument("dir")
+    s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")
     return p
 
 
@@ -91,11 +98,15 @@ def cmd_view(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    raise UserError("rtlab bench needs the ray-traced passes, which this build does not have yet")
+    from app.bench import run_bench
+
+    return run_bench(args)
 
 
 def cmd_report(args) -> int:
-    raise UserError("rtlab report reads a bench folder; rtlab bench is not part of this build yet")
+    from app.report import run_report
+
+    return run_report(args)
 
 
 def _warning_line(message, category, filename, lineno, file=None, line=None):

@@ -1,0 +1,266 @@
+"""`rtlab bench`: frame times per technique per scene (the study's measurement), plus image
+quality against the converged reference path tracer (what the study judged by eye).
+
+Timing: warm-up frames, then timed frames of the technique's own pass at --size.
+Quality: at --quality-size, the forward renderer with that one effect ray traced (the hybrid
+pass), one frame (noise) and accumulated (bias), against the reference path tracer.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from app.camera import Camera, parse_camera
+from app.errors import UserError
+from app.gl_context import create_headless_context
+from app.headless import parse_size
+from app.image_io import atomic_path, write_png, write_text
+from app.machine import machine_info
+from app.options import Options
+from app.renderer import Renderer
+from scenes.loaders import load_scene
+
+# name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on
+CONFIGS = {
+    "forward": ("forward", []),
+    "reflections": ("reflections", []),
+    "shadows_all": ("shadows", ["shadows.lights=all"]),
+    "shadows_one": ("shadows", ["shadows.lights=one"]),
+    "gi_1": ("gi", ["gi.rays_per_pixel=1", "gi.shadows=false"]),
+    "gi_4": ("gi", ["gi.rays_per_pixel=4", "gi.shadows=false"]),
+    "gi_shadows": ("gi", ["gi.rays_per_pixel=1", "gi.shadows=true"]),
+    "ao_1": ("ao", ["ao.rays_per_pixel=1"]),
+    "ao_4": ("ao", ["ao.rays_per_pixel=4"]),
+    "hybrid": ("hybrid", []),
+}
+HYBRID_EFFECT = {"reflections": "reflections", "shadows_all": "shadows", "shadows_one": "shadows", "gi_1": "gi",
+                 "gi_4": "gi", "gi_shadows": "gi", "ao_1": "ao", "ao_4": "ao"}
+ALL_CONFIGS = list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
+DEFAULT_SCENES = ("arcade", "street", "cafe", "park", "temple")
+
+
+def parse_configs(text: str | None) -> list[str]:
+    if not text:
+        return ALL_CONFIGS
+    out = []
+    for name in (c.strip() for c in text.split(",")):
+        if name not in ALL_CONFIGS:
+            raise UserError(f"--configs: unknown configuration {name!r}; choose from {', '.join(ALL_CONFIGS)}")
+        out.append(name)
+    if "forward" not in out:
+        out.insert(0, "forward")  # every cost is relative to the forward baseline
+    return out
+
+
+def config_options(config: str) -> tuple[str, list[str]]:
+    base, _, acc = config.partition("+")
+    pass_name, sets = CONFIGS[base]
+    return pass_name, sets + [f"accumulate={'true' if acc else 'false'}"]
+
+
+def quality_options(config: str) -> list[str]:
+    """The forward renderer with only this configuration's effect ray traced."""
+    base = config.partition("+")[0]
+    _, sets = CONFIGS[base]
+    if base == "hybrid":
+        return list(sets)
+    effect = HYBRID_EFFECT[base]
+    return sets + [f"hybrid.{e}={'true' if e == effect else 'false'}" for e in ("shadows", "ao", "reflections", "gi")]
+
+
+class Progress:
+    def __init__(self, total: float, stream=sys.stderr):
+        self.total, self.done, self.t0, self.stream = max(total, 1e-9), 0.0, time.perf_counter(), stream
+        self.tty = stream.isatty()
+
+    def update(self, amount: float, label: str) -> None:
+        self.done += amount
+        frac = min(self.done / self.total, 1.0)
+        elapsed = time.perf_counter() - self.t0
+        eta = elapsed / frac * (1 - frac) if frac > 0 else 0
+        bar = "#" * int(frac * 30)
+        line = f"[{bar:<30}] {frac:5.1%}  {elapsed:6.0f}s elapsed, ETA {eta:5.0f}s  {label}"
+        if self.tty:
+            self.stream.write("\r" + line[:150].ljust(150))
+            if frac >= 1:
+                self.stream.write("\n")
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+
+def stats(ms: list[float]) -> dict:
+    a = np.asarray(ms, float)
+    return {"mean": float(a.mean()), "median": float(np.median(a)), "p5": float(np.percentile(a, 5)),
+            "p95": float(np.percentile(a, 95)), "min": float(a.min()), "max": float(a.max())}
+
+
+def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warmup: int, frames: int | None,
+                seconds: float | None) -> dict:
+    pass_name, sets = config_options(config)
+    opts = Options()
+    opts.apply(sets)
+    renderer.options = opts
+    renderer.reset()
+    for _ in range(warmup):
+        renderer.render(camera, *size, pass_name)
+    ctx.finish()
+    times, passes, rays = [], {}, []
+    start = time.perf_counter()
+    while True:
+        t0 = time.perf_counter()
+        renderer.render(camera, *size, pass_name)
+        ctx.finish()
+        times.append((time.perf_counter() - t0) * 1e3)
+        for name, ms in renderer.profiler.frame.items():
+            passes.setdefault(name, []).append(ms)
+        rays.append(renderer.profiler.counters.get("rays", 0))
+        n = len(times)
+        if frames is not None and n >= frames:
+            break
+        if frames is None and n >= 2 and time.perf_counter() - start >= seconds:
+            break
+    ft = stats(times)
+    mean_rays = float(np.mean(rays))
+    kind = renderer.profiler.kind
+    return {"config": config, "pass": pass_name, "options": sets, "accumulate": config.endswith("+acc"),
+            "frames": len(times), "frame_ms": ft, "fps": 1000.0 / ft["mean"], "rays_per_frame": mean_rays,
+            "mrays_per_s": mean_rays / ft["mean"] / 1e3,
+            "passes_ms": {k: float(np.mean(v)) for k, v in passes.items()},
+            "pass_kind": {k: kind.get(k, "cpu") for k in passes},
+            "transfer_ms": float(sum(np.mean(passes[k]) for k in ("gbuffer_readback", "upload") if k in passes))}
+
+
+def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int,
+                 seed: int = 0) -> np.ndarray:
+    opts = Options()
+    opts.apply(sets + ["accumulate=true"])
+    renderer.options = opts
+    renderer.seed = seed
+    renderer.reset()
+    for _ in range(frames):
+        renderer.render(camera, *size, pass_name)
+    return renderer.read_display()
+
+
+def run_bench(args) -> int:
+    size = parse_size(args.size if not args.quick or args.size != "1280x720" else "160x90")
+    quality_size = parse_size(args.quality_size) if args.quality_size else (
+        (96, 54) if args.quick else (max(size[0] // 4, 32), max(size[1] // 4, 18)))
+    configs = parse_configs(args.configs)
+    scenes = [s.strip() for s in (args.scenes or ",".join(DEFAULT_SCENES)).split(",") if s.strip()]
+    if args.frames is not None and args.frames < 1:
+        raise UserError("--frames must be at least 1")
+    if args.seconds is not None and args.seconds <= 0:
+        raise UserError("--seconds must be positive")
+    frames = args.frames if args.frames is not None else (2 if args.quick else None)
+    seconds = args.seconds if args.seconds is not None else 5.0
+    warmup = 1 if args.quick else 2
+    ref_frames = args.reference_frames or (16 if args.quick else 256)
+    acc_frames = args.quality_frames or (4 if args.quick else 32)
+    out = Path(args.out)
+    try:
+        (out / "images").mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UserError(f"cannot create {out}: {e.strerror}") from None
+    loaded = [(spec, load_scene(spec)) for spec in scenes]  # fail on a bad scene before measuring
+    ctx = create_headless_context()
+    timed_configs = [c for c in configs]
+    quality_configs = [c for c in configs if not c.endswith("+acc")] if not args.no_quality else []
+    work = len(loaded) * (len(timed_configs) + (len(quality_configs) + 4 if quality_configs else 0))
+    progress = Progress(work)
+    results, scene_info = [], {}
+    for _spec, scene in loaded:
+        camera = parse_camera(args.camera, scene) if args.camera else Camera.from_view(scene.default_view(),
+                                                                                        scene.diagonal)
+        renderer = Renderer(ctx, scene)
+        t0 = time.perf_counter()
+        renderer.ray_tracing()
+        build_s = time.perf_counter() - t0
+        scene_info[scene.name] = {**scene.stats(), "bvh_build_s": build_s, "camera": camera.to_string()}
+        rows = []
+        for config in timed_configs:
+            row = time_config(ctx, renderer, camera, size, config, warmup, frames, seconds)
+            row["scene"] = scene.name
+            rows.append(row)
+            progress.update(1, f"{scene.name} {config}: {row['frame_ms']['mean']:.1f} ms")
+        base = next(r for r in rows if r["config"] == "forward")["frame_ms"]["mean"]
+        for r in rows:
+            r["relative_cost"] = r["frame_ms"]["mean"] / base
+        if quality_configs:
+            measure_quality(renderer, camera, quality_size, scene.name, rows, quality_configs, ref_frames,
+                            acc_frames, out / "images", progress)
+        renderer.release()
+        results += rows
+    from app.recommend import recommend
+
+    doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"),
+           "settings": {"size": list(size), "frames": frames, "seconds": None if frames else seconds, "warmup": warmup,
+                        "quality_size": list(quality_size), "reference_frames": ref_frames,
+                        "quality_frames": acc_frames, "quality": bool(quality_configs), "budget_ms": args.budget_ms},
+           "scenes": scene_info, "results": results,
+           "recommendations": {s: recommend([r for r in results if r["scene"] == s], args.budget_ms)
+                               for s in scene_info} if quality_configs else {}}
+    write_results(out, doc)
+    from app.report import write_report
+
+    write_report(out, doc, html=False)
+    print(f"bench: {len(results)} runs over {len(scene_info)} scene(s) -> {out}/results.json, results.csv, report.md")
+    return 0
+
+
+def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frames, acc_frames, images, progress):
+    ref = render_image(renderer, camera, size, "reference", [], ref_frames, seed=1)
+    write_png(images / f"{scene_name}_reference.png", ref)
+    progress.update(2, f"{scene_name} reference ({ref_frames} frames)")
+    from app.quality import mean_flip, psnr
+
+    fwd = render_image(renderer, camera, size, "forward", [], 1)
+    write_png(images / f"{scene_name}_forward.png", fwd)
+    flip_fwd = mean_flip(ref, fwd)
+    progress.update(2, f"{scene_name} forward quality")
+    by_config = {r["config"]: r for r in rows}
+    for config in configs:
+        if config == "forward":
+            by_config[config]["quality"] = {"flip_single": flip_fwd, "flip_accumulated": flip_fwd,
+                                            "psnr_single": psnr(ref, fwd), "psnr_accumulated": psnr(ref, fwd),
+                                            "gain": 0.0}
+            progress.update(1, f"{scene_name} forward")
+            continue
+        sets = quality_options(config)
+        single = render_image(renderer, camera, size, "hybrid", sets, 1)
+        acc = render_image(renderer, camera, size, "hybrid", sets, acc_frames)
+        write_png(images / f"{scene_name}_{config}.png", acc)
+        q = {"flip_single": mean_flip(ref, single), "flip_accumulated": mean_flip(ref, acc),
+             "psnr_single": psnr(ref, single), "psnr_accumulated": psnr(ref, acc)}
+        q["gain"] = flip_fwd - q["flip_accumulated"]
+        for r in rows:  # the +acc variant shares the images of its configuration
+            if r["config"].partition("+")[0] == config:
+                r["quality"] = q
+        progress.update(1, f"{scene_name} {config} quality: FLIP {q['flip_accumulated']:.3f}")
+
+
+def write_results(out: Path, doc: dict) -> None:
+    write_text(out / "results.json", json.dumps(doc, indent=1))
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["scene", "config", "pass", "accumulate", "frames", "mean_ms", "median_ms", "p5_ms", "p95_ms", "fps",
+                "rays_per_frame", "mrays_per_s", "relative_cost", "transfer_ms", "flip_single", "flip_accumulated",
+                "psnr_single", "psnr_accumulated", "gain"])
+    for r in doc["results"]:
+        q = r.get("quality") or {}
+        f = r["frame_ms"]
+        w.writerow([r["scene"], r["config"], r["pass"], r["accumulate"], r["frames"], f"{f['mean']:.3f}",
+                    f"{f['median']:.3f}", f"{f['p5']:.3f}", f"{f['p95']:.3f}", f"{r['fps']:.3f}",
+                    int(r["rays_per_frame"]), f"{r['mrays_per_s']:.3f}", f"{r['relative_cost']:.3f}",
+                    f"{r['transfer_ms']:.3f}"] + [("" if q.get(k) is None else f"{q[k]:.4f}")
+                                                  for k in ("flip_single", "flip_accumulated", "psnr_single",
+                                                            "psnr_accumulated", "gain")])
+    with atomic_path(out / "results.csv") as tmp:
+        Path(tmp).write_text(buf.getvalue())

@@ -1,0 +1,41 @@
+"""What machine a measurement came from: every benchmark figure is labelled with it."""
+from __future__ import annotations
+
+import os
+import platform
+from importlib import metadata
+
+
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def usable_cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def machine_info(ctx=None) -> dict:
+    versions = {}
+    for pkg in ("numpy", "moderngl", "embreex", "glcontext", "trimesh", "flip-evaluator", "matplotlib"):
+        try:
+            versions[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            versions[pkg] = None
+    info = {"cpu": cpu_model(), "cores": usable_cores(), "python": platform.python_version(),
+            "platform": platform.platform(), "packages": versions}
+    if ctx is not None:
+        info["gl_renderer"] = ctx.info.get("GL_RENDERER")
+        info["gl_version"] = ctx.info.get("GL_VERSION")
+    return info
+
+
+def machine_label(info: dict) -> str:
+    gl = info.get("gl_renderer") or "?"
+    return f"{info.get('cpu', '?')}, {info.get('cores', '?')} cores, GL: {gl}"

@@ -1,0 +1,52 @@
+"""Per-scene recommendations from measured cost and quality, with the rule written out."""
+from __future__ import annotations
+
+# the study's conclusions (section 5.0) for the archetype each built-in scene stands for
+STUDY = {
+    "arcade": ("Arcade (sparse indoor)", "RT ambient occlusion"),
+    "street": ("Bistro exterior (urban outdoor)", "RT reflections + RT global illumination"),
+    "cafe": ("Bistro interior (cluttered indoor)", "RT shadows + RT ambient occlusion (reflections optional)"),
+    "park": ("Emerald Square (sparse outdoor)", "RT shadows (reflections only with water)"),
+    "temple": ("Sun Temple (sparse indoor)", "RT ambient occlusion"),
+}
+EFFECT_OF = {"reflections": "reflections", "shadows_all": "shadows", "shadows_one": "shadows", "gi_1": "gi",
+             "gi_4": "gi", "gi_shadows": "gi", "ao_1": "ao", "ao_4": "ao"}
+EFFECT_NAME = {"reflections": "RT reflections", "shadows": "RT shadows", "gi": "RT global illumination",
+               "ao": "RT ambient occlusion"}
+MIN_GAIN = 0.005  # mean-FLIP reduction below this is not a visible improvement
+
+
+def rule_text(budget_ms: float | None) -> str:
+    budget = f"the extra frame time fits a budget of {budget_ms:g} ms" if budget_ms else "no frame-time budget"
+    return (f"For each effect (shadows, reflections, GI, AO) take its configuration with the best quality gain per "
+            f"extra millisecond, where quality gain = mean FLIP of the forward baseline minus mean FLIP of the "
+            f"forward renderer with that effect ray traced (accumulated, against the converged reference path "
+            f"tracer) and extra milliseconds = its frame time minus the forward frame time. Keep effects whose gain "
+            f"is at least {MIN_GAIN}; add them in order of gain per millisecond while {budget}.")
+
+
+def recommend(rows: list[dict], budget_ms: float | None = None) -> dict:
+    """rows: result rows of one scene (config, frame_ms.mean, quality.gain). Returns the pick."""
+    by_config = {r["config"]: r for r in rows}
+    forward = by_config.get("forward")
+    base_ms = forward["frame_ms"]["mean"] if forward else 0.0
+    best: dict[str, dict] = {}
+    for r in rows:
+        effect = EFFECT_OF.get(r["config"])
+        q = r.get("quality") or {}
+        if effect is None or q.get("gain") is None or r.get("accumulate"):
+            continue
+        extra = max(r["frame_ms"]["mean"] - base_ms, 1e-3)
+        cand = {"config": r["config"], "effect": effect, "gain": q["gain"], "extra_ms": extra,
+                "gain_per_ms": q["gain"] / extra}
+        if cand["gain"] >= MIN_GAIN and (effect not in best or cand["gain_per_ms"] > best[effect]["gain_per_ms"]):
+            best[effect] = cand
+    chosen, spent = [], 0.0
+    for cand in sorted(best.values(), key=lambda c: -c["gain_per_ms"]):
+        if budget_ms is not None and spent + cand["extra_ms"] > budget_ms:
+            continue
+        chosen.append(cand)
+        spent += cand["extra_ms"]
+    text = " + ".join(EFFECT_NAME[c["effect"]] for c in chosen) or "the raster baseline (no effect gains enough)"
+    return {"chosen": chosen, "candidates": sorted(best.values(), key=lambda c: -c["gain_per_ms"]),
+            "extra_ms": spent, "text": text}

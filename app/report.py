@@ -1,0 +1,258 @@
+"""`rtlab report DIR`: tables in the study's layout, per-pass breakdown, plots, a gallery and
+per-scene recommendations from a bench folder's results.json (report.md + report.html)."""
+from __future__ import annotations
+
+import base64
+import html
+import json
+from pathlib import Path
+
+from app.errors import UserError
+from app.image_io import atomic_path, write_text
+from app.machine import machine_label
+from app.recommend import STUDY, recommend, rule_text
+
+TECHNIQUES = [
+    ("Reflections", "reflections"), ("Shadows (all lights)", "shadows_all"), ("Shadows (one light)", "shadows_one"),
+    ("GI, 1 ray/pixel", "gi_1"), ("GI, 4 rays/pixel", "gi_4"), ("GI + shadows", "gi_shadows"),
+    ("AO, 1 ray/pixel", "ao_1"), ("AO, 4 rays/pixel", "ao_4"), ("Hybrid (RT shadows + RT AO)", "hybrid"),
+]
+
+
+def load_results(folder: Path) -> dict:
+    path = folder / "results.json"
+    if not path.is_file():
+        raise UserError(f"{folder}: no results.json (run rtlab bench --out {folder} first)")
+    try:
+        doc = json.loads(path.read_text())
+        doc["results"], doc["scenes"]  # noqa: B018 - both must exist
+    except (ValueError, KeyError, TypeError) as e:
+        raise UserError(f"{path}: not an rtlab results file ({e})") from None
+    return doc
+
+
+def _index(doc: dict) -> dict:
+    return {(r["scene"], r["config"]): r for r in doc["results"]}
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join(" --- " for _ in header) + "|"]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return out
+
+
+def technique_tables(doc: dict) -> list[tuple[str, list[str], list[list[str]]]]:
+    """One table per technique, scenes as columns, fps (the study's layout)."""
+    idx, scenes = _index(doc), list(doc["scenes"])
+    tables = []
+    for title, cfg in TECHNIQUES:
+        if not any((s, cfg) in idx for s in scenes):
+            continue
+        rows = []
+        for label, key in (("Rasterised forward", "forward"), (f"{title}", cfg), (f"{title} + accumulation",
+                                                                                     f"{cfg}+acc")):
+            if any((s, key) in idx for s in scenes):
+                rows.append([label] + [f"{idx[(s, key)]['fps']:.2f}" if (s, key) in idx else "–" for s in scenes])
+        rows.append(["cost vs forward"] + [f"×{idx[(s, cfg)]['relative_cost']:.1f}" if (s, cfg) in idx else "–"
+                                           for s in scenes])
+        tables.append((f"{title}: frames per second", ["fps"] + scenes, rows))
+    return tables
+
+
+def breakdown_rows(doc: dict) -> list[list[str]]:
+    rows = []
+    for r in doc["results"]:
+        if r["accumulate"]:
+            continue
+        parts = ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["passes_ms"].items(), key=lambda kv: -kv[1]))
+        rows.append([r["scene"], r["config"], f"{r['frame_ms']['mean']:.1f}", f"{r['frame_ms']['median']:.1f}",
+                     f"{r['frame_ms']['p5']:.1f}–{r['frame_ms']['p95']:.1f}", f"{r['mrays_per_s']:.2f}",
+                     f"{r['transfer_ms']:.1f}", parts])
+    return rows
+
+
+def quality_rows(doc: dict) -> list[list[str]]:
+    rows = []
+    for r in doc["results"]:
+        q = r.get("quality")
+        if not q or r["accumulate"]:
+            continue
+        rows.append([r["scene"], r["config"], f"{q['flip_single']:.4f}", f"{q['flip_accumulated']:.4f}",
+                     f"{q['psnr_single']:.2f}", f"{q['psnr_accumulated']:.2f}", f"{q['gain']:+.4f}"])
+    return rows
+
+
+def recommendation_rows(doc: dict, budget_ms) -> list[list[str]]:
+    rows = []
+    for scene in doc["scenes"]:
+        rec = recommend([r for r in doc["results"] if r["scene"] == scene], budget_ms)
+        base = scene.partition(":")[0]
+        archetype, study = STUDY.get(base, ("(not a study archetype)", "–"))
+        why = "; ".join(f"{c['config']}: gain {c['gain']:.3f} for +{c['extra_ms']:.0f} ms" for c in rec["chosen"])
+        rows.append([scene, rec["text"], why or "–", archetype, study])
+    return rows
+
+
+def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    idx, scenes = _index(doc), list(doc["scenes"])
+    label = machine_label(doc["machine"])
+    w, h = doc["settings"]["size"]
+    plots = []
+    configs = ["forward"] + [c for _, c in TECHNIQUES]
+    configs = [c for c in configs if any((s, c) in idx for s in scenes)]
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    width = 0.8 / max(len(configs), 1)
+    for k, cfg in enumerate(configs):
+        xs = [i + k * width for i, s in enumerate(scenes) if (s, cfg) in idx]
+        ys = [idx[(s, cfg)]["fps"] for s in scenes if (s, cfg) in idx]
+        ax.bar(xs, ys, width, label=cfg)
+    ax.set_xticks([i + 0.4 - width / 2 for i in range(len(scenes))], scenes)
+    ax.set_yscale("log")
+    ax.set_ylabel("frames per second (log)")
+    ax.set_title(f"fps per technique, {w}x{h}\n{label}", fontsize=9)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    plots.append(("fps per technique per scene", _save(fig, folder / "plot_fps.png")))
+    plt.close(fig)
+
+    rows = [r for r in doc["results"] if r.get("quality") and not r["accumulate"]]
+    if rows:
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for s in scenes:
+            pts = [r for r in rows if r["scene"] == s]
+            ax.scatter([r["frame_ms"]["mean"] for r in pts], [r["quality"]["flip_accumulated"] for r in pts], label=s)
+            for r in pts:
+                ax.annotate(r["config"], (r["frame_ms"]["mean"], r["quality"]["flip_accumulated"]), fontsize=6)
+        ax.set_xscale("log")
+        ax.set_xlabel("frame time (ms, log)")
+        ax.set_ylabel("mean FLIP vs reference (lower is better)")
+        ax.set_title(f"cost vs quality\n{label}", fontsize=9)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        plots.append(("cost vs quality", _save(fig, folder / "plot_cost_quality.png")))
+        plt.close(fig)
+
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        pixels = w * h
+        for fam in ("gi", "ao"):
+            for s in scenes:
+                pts = [r for r in rows if r["scene"] == s and r["config"] in (f"{fam}_1", f"{fam}_4")]
+                if len(pts) == 2:
+                    ax.plot([r["rays_per_frame"] / pixels for r in pts], [r["quality"]["flip_single"] for r in pts],
+                            marker="o", label=f"{fam} {s}")
+        ax.set_xlabel("rays per pixel per frame")
+        ax.set_ylabel("mean FLIP of one frame (noise)")
+        ax.set_title(f"rays per pixel vs error\n{label}", fontsize=9)
+        ax.legend(fontsize=6, ncol=2)
+        fig.tight_layout()
+        plots.append(("rays per pixel vs error", _save(fig, folder / "plot_rays_error.png")))
+        plt.close(fig)
+    return plots
+
+
+def _save(fig, path: Path) -> str:
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    return path.name
+
+
+def gallery(doc: dict, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
+    out = []
+    for scene in doc["scenes"]:
+        items = []
+        for cfg in ["reference", "forward"] + [c for _, c in TECHNIQUES]:
+            name = f"images/{scene}_{cfg}.png"
+            if (folder / name).is_file():
+                items.append((cfg, name))
+        if items:
+            out.append((scene, items))
+    return out
+
+
+def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> None:
+    budget_ms = budget_ms if budget_ms is not None else doc["settings"].get("budget_ms")
+    label = machine_label(doc["machine"])
+    s = doc["settings"]
+    when = f"{s['frames']} frames" if s.get("frames") else f"{s.get('seconds')} s"
+    md = ["# rtlab benchmark report", "",
+          f"Machine: **{label}**. Created {doc.get('created', '?')}.", "",
+          f"Timing: {s['size'][0]}×{s['size'][1]}, {s['warmup']} warm-up frames, then {when} per configuration; "
+          "each technique's own pass (as the study measured). "
+          + (f"Quality: {s['quality_size'][0]}×{s['quality_size'][1]}, the forward renderer with that effect ray "
+             f"traced, one frame and {s['quality_frames']} accumulated frames, against the reference path tracer "
+             f"converged over {s['reference_frames']} frames; mean FLIP (LDR) and PSNR." if s.get("quality") else
+             "Quality was not measured (--no-quality)."), ""]
+    sections = []
+    for title, header, rows in technique_tables(doc):
+        sections.append((title, header, rows))
+        md += [f"## {title}", ""] + _table(header, rows) + [""]
+    bh = ["scene", "config", "mean ms", "median ms", "p5–p95 ms", "Mrays/s", "transfers ms", "per pass (ms)"]
+    md += ["## Per-pass time breakdown", ""] + _table(bh, breakdown_rows(doc)) + [""]
+    qrows = quality_rows(doc)
+    qh = ["scene", "config", "FLIP 1 frame", "FLIP accumulated", "PSNR 1 frame", "PSNR accumulated",
+          "gain vs forward"]
+    if qrows:
+        md += ["## Quality against the reference", ""] + _table(qh, qrows) + [""]
+        rh = ["scene", "measured recommendation", "why", "study archetype", "study's recommendation"]
+        rrows = recommendation_rows(doc, budget_ms)
+        md += ["## Recommendations", "", f"Rule: {rule_text(budget_ms)}", ""] + _table(rh, rrows) + [""]
+    plots = make_plots(doc, folder)
+    md += ["## Plots", ""] + [f"![{t}]({p})" for t, p in plots] + [""]
+    gal = gallery(doc, folder)
+    if gal:
+        md += ["## Gallery (same view; forward vs each technique swapped in)", ""]
+        for scene, items in gal:
+            md += [f"### {scene}", "", " ".join(f"![{c}]({p})" for c, p in items), "",
+                   " · ".join(c for c, _ in items), ""]
+    write_text(folder / "report.md", "\n".join(md))
+    if html:
+        write_html(folder, doc, sections, bh, breakdown_rows(doc), qh, qrows, budget_ms, plots, gal, label)
+
+
+def _img(folder: Path, rel: str) -> str:
+    data = base64.b64encode((folder / rel).read_bytes()).decode()
+    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(rel)}">'
+
+
+def _html_table(header, rows) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, gal, label) -> None:
+    parts = ["<!doctype html><meta charset='utf-8'><title>rtlab report</title>",
+             "<style>body{font-family:sans-serif;margin:2em;max-width:1400px}table{border-collapse:collapse;"
+             "margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}th{background:#eee}"
+             "img{max-width:100%;margin:2px}.gal img{width:220px}</style>",
+             "<h1>rtlab benchmark report</h1>", f"<p>Machine: <b>{html.escape(label)}</b></p>"]
+    for title, header, rows in sections:
+        parts += [f"<h2>{html.escape(title)}</h2>", _html_table(header, rows)]
+    parts += ["<h2>Per-pass time breakdown</h2>", _html_table(bh, brows)]
+    if qrows:
+        parts += ["<h2>Quality against the reference</h2>", _html_table(qh, qrows),
+                  "<h2>Recommendations</h2>", f"<p>Rule: {html.escape(rule_text(budget_ms))}</p>",
+                  _html_table(["scene", "measured recommendation", "why", "study archetype", "study's recommendation"],
+                              recommendation_rows(doc, budget_ms))]
+    parts += ["<h2>Plots</h2>"] + [_img(folder, p) for _, p in plots]
+    if gal:
+        parts.append("<h2>Gallery</h2>")
+        for scene, items in gal:
+            parts.append(f"<h3>{html.escape(scene)}</h3><div class='gal'>")
+            parts += [f"<figure style='display:inline-block'>{_img(folder, p)}<figcaption>{html.escape(c)}"
+                      "</figcaption></figure>" for c, p in items]
+            parts.append("</div>")
+    write_text(folder / "report.html", "\n".join(parts))
+
+
+def run_report(args) -> int:
+    folder = Path(args.dir)
+    doc = load_results(folder)
+    write_report(folder, doc, html=True, budget_ms=args.budget_ms)
+    print(f"report: {folder}/report.md, {folder}/report.html")
+    return 0

@@ -1,0 +1,84 @@
+import csv
+import json
+import subprocess
+import sys
+
+import pytest
+
+from app.bench import ALL_CONFIGS
+from app.recommend import recommend
+from app.report import run_report
+
+
+@pytest.fixture(scope="module")
+def quick_bench(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    r = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--quick", "--scenes", "arcade,cafe", "--out",
+                        str(out)], capture_output=True, text=True, timeout=1200)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return out
+
+
+def test_quick_bench_writes_every_configuration(quick_bench):
+    doc = json.loads((quick_bench / "results.json").read_text())
+    assert doc["machine"]["cores"] >= 1 and doc["machine"]["gl_renderer"]
+    assert set(doc["scenes"]) == {"arcade", "cafe"}
+    for scene in ("arcade", "cafe"):
+        rows = {r["config"]: r for r in doc["results"] if r["scene"] == scene}
+        assert set(rows) == set(ALL_CONFIGS)
+        for r in rows.values():
+            f = r["frame_ms"]
+            assert 0 < f["p5"] <= f["median"] <= f["p95"] and f["mean"] > 0 and r["fps"] > 0
+            assert r["relative_cost"] > 0
+            assert r["passes_ms"] and all(v >= 0 for v in r["passes_ms"].values())
+            if r["pass"] != "forward":
+                assert r["rays_per_frame"] > 0 and r["mrays_per_s"] > 0
+            q = r["quality"]
+            assert 0 <= q["flip_accumulated"] <= 1 and q["psnr_single"] > 0
+        assert rows["forward"]["relative_cost"] == pytest.approx(1.0)
+    assert set(doc["recommendations"]) == {"arcade", "cafe"}
+    with open(quick_bench / "results.csv") as f:
+        assert len(list(csv.DictReader(f))) == 2 * len(ALL_CONFIGS)
+    assert "Recommendations" in (quick_bench / "report.md").read_text()
+
+
+def test_report_renders(quick_bench):
+    from types import SimpleNamespace
+
+    assert run_report(SimpleNamespace(dir=str(quick_bench), budget_ms=None)) == 0
+    md = (quick_bench / "report.md").read_text()
+    page = (quick_bench / "report.html").read_text()
+    for needle in ("Reflections: frames per second", "| fps | arcade | cafe |", "Per-pass time breakdown",
+                   "study's recommendation", "RT ambient occlusion"):
+        assert needle in md
+    assert page.count("data:image/png;base64,") >= 3 + 2 * 5  # plots + gallery, embedded
+    for plot in ("plot_fps.png", "plot_cost_quality.png", "plot_rays_error.png"):
+        assert (quick_bench / plot).stat().st_size > 1000
+
+
+def row(config, ms, gain, accumulate=False):
+    return {"config": config, "frame_ms": {"mean": ms}, "accumulate": accumulate, "quality": {"gain": gain}}
+
+
+def test_recommendation_rule_picks_the_best_gain_per_millisecond():
+    rows = [row("forward", 10, 0.0), row("reflections", 60, 0.001), row("shadows_all", 110, 0.02),
+            row("shadows_one", 40, 0.018), row("gi_1", 210, 0.06), row("gi_4", 810, 0.07),
+            row("ao_1", 20, 0.03), row("ao_4", 50, 0.035), row("ao_1+acc", 21, 0.03, accumulate=True)]
+    rec = recommend(rows)
+    picked = [c["config"] for c in rec["chosen"]]
+    assert picked == ["ao_1", "shadows_one", "gi_1"]  # 3.0, 0.6, 0.3 gain/ms; reflections gain too small
+    assert rec["text"] == "RT ambient occlusion + RT shadows + RT global illumination"
+    budget = recommend(rows, budget_ms=50)
+    assert [c["config"] for c in budget["chosen"]] == ["ao_1", "shadows_one"]
+    assert recommend([row("forward", 10, 0.0), row("ao_1", 20, 0.001)])["chosen"] == []
+
+
+def test_bench_user_errors(tmp_path):
+    for args, needle in ((["--configs", "nope"], "unknown configuration"), (["--scenes", "missing.glb"], "no such"),
+                         (["--frames", "0"], "--frames")):
+        r = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--quick", "--out", str(tmp_path), *args],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode != 0 and needle in r.stderr and "Traceback" not in r.stderr
+    r = subprocess.run([sys.executable, "-m", "app.cli", "report", str(tmp_path / "none")], capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode != 0 and "results.json" in r.stderr
