@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt.sampling import cosine_hemisphere
+from rt.shading import hemisphere
 
 
 @dataclass
@@ -27,12 +27,10 @@ def ambient_occlusion(rf) -> np.ndarray:
     rng = rf.rng(2)
     open_count = np.zeros(len(s), np.float32)
     for _ in range(rays):
-        d = cosine_hemisphere(s.n, rng.next(2))
-        above = np.einsum("ij,ij->i", d, s.ng) > 0  # below the true surface counts as occluded
-        idx = np.nonzero(above)[0]
+        o, d, above = hemisphere(rf.data, s, rng)
+        idx = np.flatnonzero(above)  # a direction below the true surface counts as occluded
         if idx.size:
-            o = rf.data.offset(s.take(idx), d[idx])
-            open_count[idx] += ~rf.tracer.occluded(o, d[idx], radius)
+            open_count[idx] += ~rf.tracer.occluded(o[idx], d[idx], radius)
     return open_count / rays
 
 

@@ -11,8 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt.sampling import cosine_hemisphere
-from rt.shading import INV_PI, direct_one, trace_from
+from rt.shading import INV_PI, direct_one, hemisphere, trace_from
 
 
 @dataclass
@@ -27,12 +26,12 @@ register_group("gi", GIOptions)
 
 def incoming_indirect(rf, s, rng, bounces: int, shadowed: bool) -> np.ndarray:
     """One-sample estimate of the radiance arriving along a cosine-sampled direction."""
-    d = cosine_hemisphere(s.n, rng.next(2))
+    o, d, valid = hemisphere(rf.data, s, rng)
     out = np.zeros((len(s), 3), np.float32)
-    above = np.nonzero(np.einsum("ij,ij->i", d, s.ng) > 0)[0]
+    above = np.flatnonzero(valid)
     if not above.size:
         return out
-    hit, sh, miss = trace_from(rf.data, rf.tracer, s.take(above), d[above])
+    hit, sh, miss = trace_from(rf.data, rf.tracer, s.take(above), d[above], o[above])
     if miss.size:
         out[above[miss]] = rf.environment.radiance(d[above[miss]])
     if hit.size:

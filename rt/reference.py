@@ -12,8 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt.sampling import cosine_hemisphere
-from rt.shading import INV_PI, LUMA, direct_one, fresnel_schlick, mirror, trace_from
+from rt.shading import INV_PI, LUMA, direct_one, fresnel_schlick, hemisphere, mirror, trace_from
 
 
 @dataclass
@@ -49,8 +48,8 @@ def trace_paths(rf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
         if bounce == max_bounces:
             break
         d = np.empty((len(s), 3), np.float32)
-        if di.size:
-            d[di] = cosine_hemisphere(s.n[di], rng.subset(di).next(2))
+        _, cos_dirs, _ = hemisphere(rf.data, s, rng)
+        d[di] = cos_dirs[di]
         si = np.nonzero(spec)[0]
         if si.size:
             d[si] = mirror(d_in[si], s.take(si))

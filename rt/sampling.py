@@ -34,13 +34,21 @@ class PixelRng:
     def dim(self) -> int:
         return self._dim[0]
 
-    def next(self, k: int = 1) -> np.ndarray:
-        """(N,k) float32 uniforms."""
-        dims = np.arange(self.dim, self.dim + k, dtype=np.uint64)
+    def reserve(self, k: int) -> int:
+        """Claim k dimensions for a kernel that draws its own numbers; returns the first."""
+        first = self.dim
         self._dim[0] += k
-        with np.errstate(over="ignore"):
-            h = _mix(self.key[:, None] + (dims[None, :] + np.uint64(1)) * _GOLDEN)
-        return ((h >> np.uint64(40)).astype(np.float32) * np.float32(1.0 / (1 << 24)))
+        return first
+
+    def next(self, k: int = 1) -> np.ndarray:
+        """(N,k) float32 uniforms (the same numbers the kernels draw)."""
+        from rt.kernels import uniforms
+
+        first = self.reserve(k)
+        out = np.empty((self.key.shape[0], k), np.float32)
+        if out.size:
+            uniforms(self.key, first, k, out)
+        return out
 
     def subset(self, index: np.ndarray) -> PixelRng:
         """The generators of some pixels (same sequences), for rays still alive."""

@@ -2,8 +2,12 @@
 
 Conventions (DESIGN.md): Lambertian albedo/pi; point/spot intensity I in W/sr with
 irradiance I cos / d^2; sun irradiance E in W/m^2 with an optional angular radius; emissive
-triangles emit radiance Le and are area lights, picked with probability ~ area x power.
-The spot cone falloff is glTF's (squared linear ramp in cos), as in shaders/forward.frag.
+triangles emit radiance Le and are area lights: each emissive cluster (scenes/model.py) is one
+light, and within it a triangle is picked with probability ~ area x power. The spot cone
+falloff is glTF's (squared linear ramp in cos), as in shaders/forward.frag.
+
+The per-point maths runs in compiled kernels (rt/kernels.py); this module owns the data and
+the order of work: build rays, trace them in one batch, combine.
 """
 from __future__ import annotations
 
@@ -11,14 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.sampling import normalize, uniform_cone
+from rt import kernels
 from rt.tracer import Hits, Tracer
 
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 INV_PI = np.float32(1 / np.pi)
 KINDS = {"point": 0, "spot": 1, "directional": 2}
-MAX_WEIGHTED_LIGHTS = 64  # up to this many lights, one-light picks weigh every light's contribution
-WEIGHT_BLOCK = 32768
 
 
 @dataclass
@@ -41,26 +43,38 @@ class Surface:
 
 
 class SceneData:
-    """The scene in the flat arrays that the passes shade with."""
+    """The scene in the flat arrays that the kernels shade with."""
 
     def __init__(self, scene):
         self.scene = scene
-        self.positions = scene.positions
-        self.normals = scene.normals
-        self.uvs = scene.uvs
-        self.indices = scene.indices
-        self.material_ids = scene.material_ids
-        p = scene.positions[scene.indices]
+        f32 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
+        self.positions = f32(scene.positions)
+        self.normals = f32(scene.normals)
+        self.uvs = f32(scene.uvs)
+        self.indices = np.ascontiguousarray(scene.indices, np.int32)
+        self.material_ids = np.ascontiguousarray(scene.material_ids, np.int32)
+        p = scene.positions[scene.indices].astype(np.float64)
         cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         length = np.linalg.norm(cross, axis=1)
-        self.tri_area = (0.5 * length).astype(np.float32)
-        self.face_normals = (cross / np.maximum(length, 1e-30)[:, None]).astype(np.float32)
+        self.tri_area = f32(0.5 * length)
+        self.face_normals = f32(cross / np.maximum(length, 1e-30)[:, None])
         mats = scene.materials
-        self.base_color = np.array([m.base_color[:3] for m in mats], np.float32)
-        self.roughness = np.array([m.roughness for m in mats], np.float32)
-        self.metallic = np.array([m.metallic for m in mats], np.float32)
-        self.emissive = np.array([m.emissive for m in mats], np.float32)
-        self.textures = {k: m.texture.astype(np.float32) for k, m in enumerate(mats) if m.texture is not None}
+        self.base_color = f32([m.base_color[:3] for m in mats])
+        self.roughness = f32([m.roughness for m in mats])
+        self.metallic = f32([m.metallic for m in mats])
+        self.emissive = f32([m.emissive for m in mats])
+        # all base-colour textures in one flat texel array (offset, width, height per material)
+        self.tex_offset = np.full(len(mats), -1, np.int64)
+        self.tex_w = np.ones(len(mats), np.int64)
+        self.tex_h = np.ones(len(mats), np.int64)
+        chunks, offset = [np.zeros((1, 3), np.float32)], 1
+        for k, m in enumerate(mats):
+            if m.texture is not None:
+                h, w = m.texture.shape[:2]
+                self.tex_offset[k], self.tex_w[k], self.tex_h[k] = offset, w, h
+                chunks.append(f32(m.texture[..., :3].reshape(-1, 3)))
+                offset += h * w
+        self.tex_data = np.ascontiguousarray(np.concatenate(chunks), np.float32)
         self.eps = np.float32(max(scene.diagonal * 2e-5, 1e-5))
         self.far = np.float32(max(scene.diagonal * 4.0, 1.0))
         self.lights = LightSet(scene, self)
@@ -68,24 +82,17 @@ class SceneData:
     # -- surfaces ----------------------------------------------------------------------------
     def surface(self, hits: Hits, dirs: np.ndarray, origins: np.ndarray) -> Surface:
         """Shading data at the hits of rays (only rays that hit: filter first)."""
-        prim = hits.prim
-        tri = self.indices[prim]
-        w1, w2 = hits.u[:, None], hits.v[:, None]
-        w0 = 1.0 - w1 - w2
-        p = (origins + dirs * hits.t[:, None]).astype(np.float32)
-        ng = self.face_normals[prim]
-        flip = np.einsum("ij,ij->i", ng, dirs) > 0
-        ng = np.where(flip[:, None], -ng, ng)
-        n = normalize(w0 * self.normals[tri[:, 0]] + w1 * self.normals[tri[:, 1]] + w2 * self.normals[tri[:, 2]])
-        n = np.where((np.einsum("ij,ij->i", n, ng) < 0)[:, None], -n, n)
-        uv = w0 * self.uvs[tri[:, 0]] + w1 * self.uvs[tri[:, 1]] + w2 * self.uvs[tri[:, 2]]
-        mat = self.material_ids[prim]
-        albedo = self.base_color[mat].copy()
-        for k, tex in self.textures.items():
-            sel = np.nonzero(mat == k)[0]
-            if sel.size:
-                albedo[sel] *= sample_texture(tex, uv[sel])
-        return Surface(p, n.astype(np.float32), ng, albedo, self.roughness[mat], self.metallic[mat], self.emissive[mat])
+        n = hits.prim.shape[0]
+        out = Surface(np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
+                      np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
+                      np.empty((n, 3), np.float32))
+        if n:
+            kernels.shade_hits(hits.prim, hits.u, hits.v, hits.t, np.ascontiguousarray(origins, np.float32),
+                               np.ascontiguousarray(dirs, np.float32), self.positions, self.normals, self.uvs,
+                               self.indices, self.material_ids, self.face_normals, self.base_color, self.roughness,
+                               self.metallic, self.emissive, self.tex_offset, self.tex_w, self.tex_h, self.tex_data,
+                               out.p, out.n, out.ng, out.albedo, out.roughness, out.metallic, out.emissive)
+        return out
 
     def offset(self, s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
         """Ray origins nudged off the surface (embreex has no tnear), on the side of `toward`."""
@@ -114,166 +121,135 @@ def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 
 class LightSet:
-    """Analytic lights plus one 'emissive' pseudo-light that samples emitting triangles."""
+    """Analytic lights plus one light per emissive cluster, as flat arrays for the kernels."""
 
     def __init__(self, scene, data: SceneData):
-        self.data = data
         lights = scene.lights
         self.count_analytic = len(lights)
-        self.kind = np.array([KINDS[li.kind] for li in lights], np.int32)
-        self.position = np.array([li.position for li in lights], np.float32).reshape(-1, 3)
-        d = np.array([li.direction for li in lights], np.float32).reshape(-1, 3)
-        self.direction = normalize(d) if len(lights) else d
-        self.radiance = np.array([li.radiance_scale for li in lights], np.float32).reshape(-1, 3)
-        self.cos_outer = np.cos([li.outer_cone for li in lights]).astype(np.float32)
-        self.cos_inner = np.cos([li.inner_cone for li in lights]).astype(np.float32)
-        self.angular_radius = np.array([li.angular_radius for li in lights], np.float32)
-        # each emissive cluster is one light; within it a triangle is picked ~ area x power
-        self.clusters = []
-        for tris in scene.emissive_clusters():
-            le = data.emissive[data.material_ids[tris]]
-            weight = data.tri_area[tris].astype(np.float64) * np.maximum(le @ LUMA, 0)
+        f32 = lambda a, shape: np.ascontiguousarray(np.asarray(a, np.float32).reshape(shape))  # noqa: E731
+        kind = np.array([KINDS[li.kind] for li in lights], np.int32)
+        pos = f32([li.position for li in lights], (-1, 3))
+        d = f32([li.direction for li in lights], (-1, 3))
+        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-20)
+        rad = f32([li.radiance_scale for li in lights], (-1, 3))
+        cos_out = f32(np.cos([li.outer_cone for li in lights]), (-1,))
+        cos_in = f32(np.cos([li.inner_cone for li in lights]), (-1,))
+        ang = f32([li.angular_radius for li in lights], (-1,))
+        tris, keep, alias, pmf, le, double, start = [], [], [], [], [], [], [0]
+        centre, radius, power = [], [], []
+        for group in scene.emissive_clusters():
+            e = data.emissive[data.material_ids[group]]
+            weight = data.tri_area[group].astype(np.float64) * np.maximum(e @ LUMA, 0)
             total = weight.sum()
             if total <= 0:
                 continue
-            self.clusters.append({
-                "tris": tris, "le": le, "cdf": np.cumsum(weight) / total, "pmf": (weight / total).astype(np.float32),
-                "double": np.array([scene.materials[m].double_sided for m in data.material_ids[tris]]),
-                "power": float(total * np.pi),
-            })
-        self.has_emissive = bool(self.clusters)
+            tris.append(group.astype(np.int64))
+            k, a = kernels.alias_table(weight)
+            keep.append(k)
+            alias.append(a)
+            pmf.append(weight / total)
+            le.append(e)
+            double.append([scene.materials[m].double_sided for m in data.material_ids[group]])
+            start.append(start[-1] + len(group))
+            pts = data.positions[data.indices[group]].reshape(-1, 3).astype(np.float64)
+            c = pts.mean(0)
+            centre.append(c)
+            radius.append(np.linalg.norm(pts - c, axis=1).max())
+            power.append(float(total))  # luminance of sum(Le A): ~ pi x emitted power / pi
+        self.cluster_count = len(tris)
+        self.cluster_centre = f32(centre, (-1, 3))
+        self.cluster_radius = f32(radius, (-1,))
+        self.cluster_power = f32(power, (-1,))
+        self.cluster_tris = [t for t in tris]
+        self.kernel_args = (
+            kind, pos, d.astype(np.float32), rad, cos_out, cos_in, ang,
+            np.asarray(start, np.int64),
+            np.concatenate(tris) if tris else np.zeros(0, np.int64),
+            np.concatenate(keep) if keep else np.zeros(0, np.float64),
+            np.concatenate(alias).astype(np.int64) if alias else np.zeros(0, np.int64),
+            f32(np.concatenate(pmf) if pmf else [], (-1,)),
+            f32(np.concatenate(le) if le else [], (-1, 3)),
+            np.concatenate(double).astype(np.bool_) if double else np.zeros(0, np.bool_),
+            data.positions, data.indices, data.face_normals, data.tri_area, self.count_analytic)
+        self.data = data
+
+    def rays(self, k: int, s: Surface, keys, dim: int, origin, direction, tmax, e) -> None:
+        """Shadow rays to light k from every point (kernels specialised per light type)."""
+        a = self.kernel_args
+        eps, far = self.data.eps, self.data.far
+        if k < self.count_analytic:
+            kernels.analytic_rays(k, s.p, s.n, s.ng, keys, dim, *a[:7], eps, far, origin, direction, tmax, e)
+        else:
+            c = k - self.count_analytic
+            kernels.cluster_rays(a[7][c], a[7][c + 1], s.p, s.n, s.ng, keys, dim, *a[8:18], eps, origin, direction,
+                                 tmax, e)
 
     @property
     def count(self) -> int:
         """Analytic lights, plus one per emissive cluster."""
-        return self.count_analytic + len(self.clusters)
+        return self.count_analytic + self.cluster_count
 
-    def sample(self, k: int, s: Surface, u: np.ndarray):
-        """Light k seen from surface points. Returns (dir, dist, E): unit direction to the light,
-        the distance to test for occlusion, and irradiance x cos at the surface (N,3), i.e.
-        radiance out = albedo/pi * E for a diffuse surface when unoccluded."""
-        if k >= self.count_analytic:
-            return self._sample_emissive(self.clusters[k - self.count_analytic], s, u)
-        kind = self.kind[k]
-        n = len(s)
-        if kind == 2:  # sun
-            axis = np.broadcast_to(-self.direction[k], (n, 3)).astype(np.float32)
-            r = float(self.angular_radius[k])
-            ldir = uniform_cone(axis, float(np.cos(r)), u) if r > 0 else axis.copy()
-            e = np.broadcast_to(self.radiance[k], (n, 3))
-            dist = np.full(n, self.data.far, np.float32)
-        else:
-            d = self.position[k] - s.p
-            dist2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
-            dist = np.sqrt(dist2)
-            ldir = (d / dist[:, None]).astype(np.float32)
-            atten = 1.0 / dist2
-            if kind == 1:  # spot: glTF's squared linear ramp between the cone angles
-                cd = -(ldir @ self.direction[k])
-                t = np.clip((cd - self.cos_outer[k]) / max(self.cos_inner[k] - self.cos_outer[k], 1e-3), 0, 1)
-                atten = atten * t * t
-            e = self.radiance[k][None] * atten[:, None]
-        cos = np.einsum("ij,ij->i", s.n, ldir)
-        front = (cos > 0) & (np.einsum("ij,ij->i", s.ng, ldir) > 0)
-        e = np.where(front[:, None], e * np.maximum(cos, 0)[:, None], 0).astype(np.float32)
-        return ldir, dist.astype(np.float32), e
-
-    def _sample_emissive(self, c: dict, s: Surface, u: np.ndarray):
-        data = self.data
-        pick = np.minimum(np.searchsorted(c["cdf"], u[:, 0], side="right"), len(c["tris"]) - 1)
-        tri = c["tris"][pick]
-        su = np.sqrt(u[:, 1])  # uniform point on the triangle
-        v = data.positions[data.indices[tri]]
-        q = v[:, 0] * (1 - su)[:, None] + v[:, 1] * (su * (1 - u[:, 2]))[:, None] + v[:, 2] * (su * u[:, 2])[:, None]
-        d = q - s.p
-        dist2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
-        dist = np.sqrt(dist2)
-        ldir = (d / dist[:, None]).astype(np.float32)
-        cos_l = -np.einsum("ij,ij->i", data.face_normals[tri], ldir)
-        cos_l = np.where(c["double"][pick], np.abs(cos_l), np.maximum(cos_l, 0))
-        cos_s = np.einsum("ij,ij->i", s.n, ldir)
-        front = (cos_s > 0) & (np.einsum("ij,ij->i", s.ng, ldir) > 0)
-        pdf_area = c["pmf"][pick] / np.maximum(data.tri_area[tri], 1e-20)
-        g = cos_l * np.maximum(cos_s, 0) / dist2 / np.maximum(pdf_area, 1e-20)
-        e = np.where(front[:, None], c["le"][pick] * g[:, None], 0).astype(np.float32)
-        # stop short of the emitter itself
-        return ldir, (dist * (1 - 1e-4) - data.eps).astype(np.float32), e
-
-    def power_weights(self) -> np.ndarray:
-        """Rough emitted power per light (for picking among many lights)."""
-        w = []
-        for k in range(self.count_analytic):
-            lum = float(self.radiance[k] @ LUMA)
-            w.append(lum * (4 * np.pi if self.kind[k] != 2 else self.data.scene.diagonal ** 2))
-        w += [c["power"] for c in self.clusters]
-        w = np.asarray(w, np.float64)
-        return w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / max(len(w), 1))
+    @property
+    def has_emissive(self) -> bool:
+        return self.cluster_count > 0
 
 
-def visible(data: SceneData, tracer: Tracer, s: Surface, ldir: np.ndarray, dist: np.ndarray,
-            active: np.ndarray | None = None) -> np.ndarray:
-    """(N,) float32 visibility of the light along ldir; only `active` rays are traced."""
-    vis = np.zeros(len(s), np.float32)
-    idx = np.nonzero(active)[0] if active is not None else np.arange(len(s))
-    if idx.size:
-        sub = s.take(idx)
-        o = data.offset(sub, ldir[idx])
-        blocked = tracer.occluded(o, ldir[idx], np.maximum(dist[idx] - data.eps, data.eps))
-        vis[idx] = (~blocked).astype(np.float32)
-    return vis
+def _buffers(n: int):
+    return (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
+            np.empty((n, 3), np.float32))
+
+
+def _add_visible(tracer: Tracer, total, origin, direction, tmax, e, shadowed: bool) -> None:
+    """total += e for rays that reach their light; only rays that carry light are traced."""
+    if not shadowed:
+        total += e
+        return
+    idx = kernels.compact(e, origin, direction, tmax)  # packs the live rays in front
+    m = idx.size
+    if m:
+        blocked = tracer.occluded(origin[:m], direction[:m], tmax[:m])
+        kernels.add_unblocked(total, e, idx, blocked)
 
 
 def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
-    """Irradiance x cos from every light: one shadow ray per analytic light and one emissive sample."""
-    total = np.zeros((len(s), 3), np.float32)
+    """Irradiance x cos from every light: one shadow ray per light (a sample per emissive cluster)."""
+    n = len(s)
+    total = np.zeros((n, 3), np.float32)
+    origin, direction, tmax, e = _buffers(n)
     for k in range(data.lights.count):
-        u = rng.next(3)
-        ldir, dist, e = data.lights.sample(k, s, u)
-        if shadowed:
-            e = e * visible(data, tracer, s, ldir, dist, e.max(axis=1) > 0)[:, None]
-        total += e
+        dim = rng.reserve(3)
+        if n:
+            data.lights.rays(k, s, rng.key, dim, origin, direction, tmax, e)
+            _add_visible(tracer, total, origin, direction, tmax, e, shadowed)
     return total
 
 
 def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
-    """Irradiance x cos from ONE light per point, chosen with probability ~ its unshadowed
-    contribution there (~ its power when there are very many lights); divided by that
-    probability, so the mean over frames equals direct_all."""
+    """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
+    contribution there and divided by that probability: accumulates to direct_all."""
     lights = data.lights
-    n, count = len(s), lights.count
-    if count == 0 or n == 0:
-        return np.zeros((n, 3), np.float32)
-    u_pick = rng.next(1)[:, 0]
-    u = rng.next(3)
-    ldir = np.zeros((n, 3), np.float32)
-    dist = np.zeros(n, np.float32)
-    e = np.zeros((n, 3), np.float32)
-    prob = np.zeros(n, np.float32)
-    if count <= MAX_WEIGHTED_LIGHTS:
-        for lo in range(0, n, WEIGHT_BLOCK):  # blocks bound the (points x lights) memory
-            blk = slice(lo, min(n, lo + WEIGHT_BLOCK))
-            sb = s.take(blk)
-            samples = [lights.sample(k, sb, u[blk]) for k in range(count)]
-            w = np.stack([x[2] @ LUMA for x in samples], 1)
-            wsum = w.sum(1)
-            cdf = np.cumsum(w, 1) / np.maximum(wsum, 1e-30)[:, None]
-            pick = np.minimum((cdf < u_pick[blk, None]).sum(1), count - 1)
-            rows = np.arange(pick.size)
-            prob[blk] = w[rows, pick] / np.maximum(wsum, 1e-30)
-            ldir[blk] = np.stack([x[0] for x in samples], 1)[rows, pick]
-            dist[blk] = np.stack([x[1] for x in samples], 1)[rows, pick]
-            e[blk] = np.stack([x[2] for x in samples], 1)[rows, pick]
-    else:
-        pw = lights.power_weights()
-        pick = np.minimum(np.searchsorted(np.cumsum(pw), u_pick, side="right"), count - 1)
-        prob[:] = pw[pick]
-        for k in np.unique(pick):
-            sel = np.nonzero(pick == k)[0]
-            ldir[sel], dist[sel], e[sel] = lights.sample(int(k), s.take(sel), u[sel])
-    e = np.where((prob > 0)[:, None], e / np.maximum(prob, 1e-30)[:, None], 0).astype(np.float32)
-    if shadowed:
-        e = e * visible(data, tracer, s, ldir, dist, e.max(axis=1) > 0)[:, None]
-    return e
+    n = len(s)
+    dim = rng.reserve(4)
+    total = np.zeros((n, 3), np.float32)
+    if lights.count == 0 or n == 0:
+        return total
+    origin, direction, tmax, e = _buffers(n)
+    kernels.one_light_rays(s.p, s.n, s.ng, rng.key, dim, lights.kernel_args, lights.cluster_centre,
+                           lights.cluster_radius, lights.cluster_power, data.eps, data.far, origin, direction, tmax, e)
+    _add_visible(tracer, total, origin, direction, tmax, e, shadowed)
+    return total
+
+
+def hemisphere(data: SceneData, s: Surface, rng):
+    """Cosine-weighted rays about the shading normals: (origins, directions, above-surface mask)."""
+    n = len(s)
+    origin = np.empty((n, 3), np.float32)
+    direction = np.empty((n, 3), np.float32)
+    valid = np.empty(n, np.bool_)
+    dim = rng.reserve(2)
+    if n:
+        kernels.hemisphere_rays(s.p, s.n, s.ng, rng.key, dim, data.eps, origin, direction, valid)
+    return origin, direction, valid
 
 
 def fresnel_schlick(s: Surface, view_dir: np.ndarray) -> np.ndarray:
@@ -283,12 +259,12 @@ def fresnel_schlick(s: Surface, view_dir: np.ndarray) -> np.ndarray:
     return (f0 + (1 - f0) * ((1 - cos) ** 5)[:, None]).astype(np.float32)
 
 
-def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray):
+def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray, origins: np.ndarray | None = None):
     """Trace rays leaving surface points; returns (hit index, surfaces at the hits, miss index)."""
-    o = data.offset(s, dirs)
+    o = data.offset(s, dirs) if origins is None else origins
     hits = tracer.intersect(o, dirs)
-    hit = np.nonzero(hits.hit)[0]
-    miss = np.nonzero(~hits.hit)[0]
+    hit = np.flatnonzero(hits.prim >= 0)
+    miss = np.flatnonzero(hits.prim < 0)
     sub = Hits(hits.t[hit], hits.prim[hit], hits.u[hit], hits.v[hit])
     return hit, data.surface(sub, dirs[hit], o[hit]), miss
 
