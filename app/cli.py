@@ -59,6 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")
     s.add_argument("--out", default="bench", help="output folder (default ./bench)")
     s.add_argument("--quick", action="store_true", help="small smoke run: 160x90, 2 frames, small reference")
+    s.add_argument("--perf", action="store_true", help="ray-tracing efficiency, thread scaling, transfers, BVH builds")
+    s.add_argument("--perf-sizes", help="sizes for --perf (default 640x360,1280x720)")
 
     s = sub.add_parser("report", help="write tables, plots and recommendations from a bench folder")
     s.add_argument("dir")
@@ -98,6 +100,10 @@ def cmd_view(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.perf:
+        from app.perf import run_perf
+
+        return run_perf(args)
     from app.bench import run_bench
 
     return run_bench(args)

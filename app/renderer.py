@@ -161,7 +161,7 @@ class Renderer:
             if raster:
                 self.gbuffer.execute(frame)
                 with self.profiler.cpu("gbuffer_readback"):
-                    job.readback = {name: read_rgba(frame.channels[name]) for name in
+                    job.readback = {name: read_rgba(frame.channels[name], flip=False) for name in
                                     ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
             self.ray_tracing()
             job.cpu = True

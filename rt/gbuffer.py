@@ -6,7 +6,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.sampling import normalize
 from rt.shading import SceneData, Surface
 
 
@@ -26,28 +25,24 @@ class CpuGBuffer:
         return self.width * self.height
 
 
-def view_dirs(camera, width: int, height: int) -> np.ndarray:
-    _, d = camera.primary_rays(width, height)
-    return d
-
-
 def from_raster(channels: dict, camera, width: int, height: int) -> CpuGBuffer:
-    """channels: H x W x 4 float32 arrays (row 0 = top) named like the raster G-buffer."""
-    pos = channels["g_position"].reshape(-1, 4)
-    nrm = channels["g_normal"].reshape(-1, 4)
-    alb = channels["g_albedo"].reshape(-1, 4)
-    emi = channels["g_emissive"].reshape(-1, 4)
-    face = channels["g_face"].reshape(-1, 4)
-    covered = face[:, 3] > 0
-    idx = np.nonzero(covered)[0]
-    s = Surface(np.ascontiguousarray(pos[idx, :3]), normalize(nrm[idx, :3]), normalize(face[idx, :3]),
-                np.ascontiguousarray(alb[idx, :3]), nrm[idx, 3].copy(), alb[idx, 3].copy(),
-                np.ascontiguousarray(emi[idx, :3]))
-    vd = view_dirs(camera, width, height)
-    # view directions through the actual surface points (exact for the raster G-buffer)
-    vd[idx] = normalize(s.p - camera.eye.astype(np.float32))
-    depth = np.where(covered, pos[:, 3], 0).astype(np.float32)
-    return CpuGBuffer(width, height, camera.eye.astype(np.float32), vd, covered, idx, s, depth)
+    """channels: the raster G-buffer as GL reads it, H x W x 4 float32, bottom row first."""
+    from rt.kernels import covered_pixels, unpack_gbuffer
+
+    face = channels["g_face"]
+    idx = covered_pixels(face, height, width)
+    m = idx.size
+    s = Surface(*(np.empty((m, 3), np.float32) for _ in range(4)), np.empty(m, np.float32),
+                np.empty(m, np.float32), np.empty((m, 3), np.float32))
+    view = np.empty((width * height, 3), np.float32)
+    depth = np.empty(width * height, np.float32)
+    r, u, f = (x.astype(np.float64) for x in camera.basis())
+    unpack_gbuffer(channels["g_position"], channels["g_normal"], channels["g_albedo"], channels["g_emissive"], face,
+                   idx, camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
+                   width / height, s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth)
+    covered = np.zeros(width * height, bool)
+    covered[idx] = True
+    return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth)
 
 
 def trace_primary(data: SceneData, tracer, camera, width: int, height: int) -> CpuGBuffer:

@@ -349,3 +349,72 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p[g] -= 1.0 - p[s]
         (small if p[g] < 1.0 else large).append(g)
     return keep, alias
+
+
+@njit(cache=True)
+def covered_pixels(face, height, width):
+    """Top-row-first pixel ids whose G-buffer texel (bottom-row-first, as GL reads) is covered."""
+    idx = np.empty(height * width, np.int64)
+    m = 0
+    for y in range(height):
+        row = height - 1 - y
+        for x in range(width):
+            if face[row, x, 3] > 0:
+                idx[m] = y * width + x
+                m += 1
+    return idx[:m]
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def unpack_gbuffer(pos, nrm, alb, emi, face, idx, eye, right, up, fwd, tan_half, aspect,
+                   P, N, NG, albedo, rough, metal, emis, view_dir, depth):
+    """GL's G-buffer textures (bottom row first) -> per-covered-pixel surface arrays and
+    per-pixel view directions and depths, top row first."""
+    height, width = pos.shape[0], pos.shape[1]
+    for p in prange(height * width):
+        y, x = p // width, p % width
+        sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
+        dx = right[0] * sx + up[0] * sy + fwd[0]
+        dy = right[1] * sx + up[1] * sy + fwd[1]
+        dz = right[2] * sx + up[2] * sy + fwd[2]
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = dx * inv, dy * inv, dz * inv
+        depth[p] = 0.0
+    for j in prange(idx.shape[0]):
+        p = idx[j]
+        y, x = p // width, p % width
+        r = height - 1 - y
+        for a in range(3):
+            P[j, a] = pos[r, x, a]
+            albedo[j, a] = alb[r, x, a]
+            emis[j, a] = emi[r, x, a]
+        depth[p] = pos[r, x, 3]
+        rough[j] = nrm[r, x, 3]
+        metal[j] = alb[r, x, 3]
+        ln = math.sqrt(nrm[r, x, 0] ** 2 + nrm[r, x, 1] ** 2 + nrm[r, x, 2] ** 2)
+        ln = 1.0 / ln if ln > 1e-20 else 0.0
+        N[j, 0], N[j, 1], N[j, 2] = nrm[r, x, 0] * ln, nrm[r, x, 1] * ln, nrm[r, x, 2] * ln
+        ln = math.sqrt(face[r, x, 0] ** 2 + face[r, x, 1] ** 2 + face[r, x, 2] ** 2)
+        ln = 1.0 / ln if ln > 1e-20 else 0.0
+        NG[j, 0], NG[j, 1], NG[j, 2] = face[r, x, 0] * ln, face[r, x, 1] * ln, face[r, x, 2] * ln
+        # the view direction through the surface point itself (exact for the raster G-buffer)
+        vx, vy, vz = P[j, 0] - eye[0], P[j, 1] - eye[1], P[j, 2] - eye[2]
+        ln = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if ln > 1e-20:
+            view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = vx / ln, vy / ln, vz / ln
+
+
+@njit(cache=True, parallel=True)
+def pack_rgba_flipped(image, height, width, channels, out):
+    """(H*W, C) top-row-first -> (H, W, 4) bottom-row-first for a GL texture upload."""
+    for p in prange(height * width):
+        y, x = p // width, p % width
+        r = height - 1 - y
+        for a in range(4):
+            if a < channels:
+                out[r, x, a] = image[p, a]
+            elif channels == 1 and a < 3:
+                out[r, x, a] = image[p, 0]
+            else:
+                out[r, x, a] = 1.0 if a == 3 else 0.0

@@ -59,6 +59,7 @@ class EmbreeTracer(Tracer):
         self.min_chunk = min_chunk
         self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_traced = 0
+        self.recording: list | None = None  # set to [] to keep every ray batch (bench --perf replays them)
         # commit (build the BVH) now rather than inside the first frame
         self.scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), query="OCCLUDED")
 
@@ -89,6 +90,8 @@ class EmbreeTracer(Tracer):
             r = self.scene.run(o[c], d[c], dists=None if dist is None else dist[c].copy(), output=1)
             t[c], prim[c], u[c], v[c] = r["tfar"], r["primID"], r["u"], r["v"]
 
+        if self.recording is not None:
+            self.recording.append(("intersect", o.copy(), d.copy(), None if dist is None else dist.copy()))
         if n:
             self._map(work, n)
         t[prim < 0] = INF
@@ -105,10 +108,34 @@ class EmbreeTracer(Tracer):
         def work(c: slice):
             out[c] = self.scene.run(o[c], d[c], dists=dist[c].copy(), query="OCCLUDED") >= 0
 
+        if self.recording is not None:
+            self.recording.append(("occluded", o.copy(), d.copy(), dist.copy()))
         if n:
             self._map(work, n)
         self.rays_traced += n
         return out
+
+    def replay(self, batches: list) -> float:
+        """Trace recorded batches again, embreex alone with the same chunking and threads;
+        returns the seconds spent (the pass's physical limit)."""
+        import time
+
+        t0 = time.perf_counter()
+        for kind, o, d, dist in batches:
+            n = o.shape[0]
+            if kind == "intersect":
+                self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=None if t is None
+                                                                     else t[c].copy(), output=1), n)
+            else:
+                self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=t[c].copy(),
+                                                                     query="OCCLUDED"), n)
+        return time.perf_counter() - t0
+
+    def set_threads(self, threads: int) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True)
+        self.threads = threads
+        self.pool = ThreadPoolExecutor(threads) if threads > 1 else None
 
     def close(self) -> None:
         if self.pool is not None:

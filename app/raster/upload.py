@@ -6,10 +6,11 @@ import numpy as np
 from app.raster.targets import Targets
 
 
-def read_rgba(tex) -> np.ndarray:
-    """An RGBA32F texture as H x W x 4 float32, top row first."""
+def read_rgba(tex, flip: bool = True) -> np.ndarray:
+    """An RGBA32F texture as H x W x 4 float32, top row first (flip=False: as GL stores it)."""
     w, h = tex.size
-    return np.frombuffer(tex.read(), np.float32).reshape(h, w, 4)[::-1]
+    data = np.frombuffer(tex.read(), np.float32).reshape(h, w, 4)
+    return data[::-1] if flip else data
 
 
 class Uploads:
@@ -18,22 +19,22 @@ class Uploads:
     def __init__(self, ctx):
         self.ctx = ctx
         self.targets: dict[str, Targets] = {}
+        self.buffers: dict[str, np.ndarray] = {}  # upload staging, reused between frames
 
     def upload(self, name: str, image: np.ndarray, width: int, height: int):
         """image: (H*W, C) or (H*W,) float32 in top-row-first order; returns the texture."""
         t = self.targets.get(name)
         if t is None:
             t = self.targets[name] = Targets(self.ctx, {"c": (4, "f4")})
+        from rt.kernels import pack_rgba_flipped
+
         tex = t.ensure(width, height)["c"]
-        img = image.reshape(height, width, -1)
-        rgba = np.zeros((height, width, 4), np.float32)
-        c = min(img.shape[2], 4)
-        rgba[..., :c] = img[..., :c]
-        if c == 1:
-            rgba[..., 1:3] = img[..., :1]
-        if c < 4:
-            rgba[..., 3] = 1.0
-        tex.write(np.ascontiguousarray(rgba[::-1]).tobytes())
+        img = np.ascontiguousarray(image, np.float32).reshape(height * width, -1)
+        buf = self.buffers.get(name)
+        if buf is None or buf.shape[:2] != (height, width):
+            buf = self.buffers[name] = np.empty((height, width, 4), np.float32)
+        pack_rgba_flipped(img, height, width, min(img.shape[1], 4), buf)
+        tex.write(buf)
         return tex
 
     def release(self) -> None:

@@ -1,0 +1,141 @@
+"""`rtlab bench --perf`: how close each ray-traced pass gets to Embree's own throughput.
+
+For every pass, scene and size: the pass's CPU time, the rays it traced, and the time
+embreex alone needs for the very same ray batches replayed in the same run with the same
+chunking and threads. efficiency = raw trace time / pass time. Also thread scaling, G-buffer
+transfers, BVH build time and memory against triangle count, and raster vs RT G-buffers.
+"""
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from app.camera import Camera
+from app.gl_context import create_headless_context
+from app.headless import parse_size
+from app.image_io import write_text
+from app.machine import machine_info, machine_label, usable_cores
+from app.options import Options
+from app.renderer import Renderer
+from scenes.loaders import load_scene
+
+PASSES = ("shadows", "ao", "gi", "reflections", "reference")
+
+
+def _rss_mb() -> float:
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError):
+        return float("nan")
+
+
+def set_threads(renderer: Renderer, threads: int) -> None:
+    import numba
+
+    renderer.ray_tracing().tracer.set_threads(threads)
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
+def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frames: int) -> dict:
+    tracer = renderer.ray_tracing().tracer
+    renderer.reset()
+    renderer.render(camera, *size, pass_name)  # warm-up (JIT, caches)
+    pass_ms, raw_s, rays, other = [], [], [], {}
+    for _ in range(frames):
+        tracer.recording = []
+        renderer.render(camera, *size, pass_name)
+        batches, tracer.recording = tracer.recording, None
+        pass_ms.append(renderer.profiler.frame[pass_name])
+        raw_s.append(tracer.replay(batches))
+        rays.append(sum(b[1].shape[0] for b in batches))
+        for k in ("gbuffer", "gbuffer_readback", "upload"):
+            other.setdefault(k, []).append(renderer.profiler.frame.get(k, 0.0))
+    p, r = float(np.median(pass_ms)), float(np.median(raw_s)) * 1e3
+    return {"pass": pass_name, "pass_ms": p, "raw_trace_ms": r, "other_ms": p - r, "efficiency": r / p,
+            "rays": int(np.median(rays)), "mrays_per_s_pass": np.median(rays) / p / 1e3,
+            "mrays_per_s_raw": np.median(rays) / r / 1e3,
+            **{f"{k}_ms": float(np.median(v)) for k, v in other.items()}}
+
+
+def run_perf(args) -> int:
+    quick = args.quick
+    sizes = [parse_size(s) for s in (args.perf_sizes.split(",") if args.perf_sizes else
+                                     (["160x90"] if quick else ["640x360", "1280x720"]))]
+    scenes = [s.strip() for s in (args.scenes or ("arcade,cafe" if quick else "arcade,street,cafe,park,temple"))
+              .split(",") if s.strip()]
+    frames = args.frames or (1 if quick else 3)
+    cores = usable_cores()
+    threads = sorted({1, cores} | {t for t in (2, 4, 8, 16, 32, 64) if t < cores})
+    ctx = create_headless_context()
+    doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"), "passes": [],
+           "scaling": [], "gbuffer": [], "bvh": []}
+    label = machine_label(doc["machine"])
+    print(f"perf on {label}")
+    for spec in scenes:
+        scene = load_scene(spec)
+        renderer = Renderer(ctx, scene, Options())
+        camera = Camera.from_view(scene.default_view(), scene.diagonal)
+        set_threads(renderer, cores)
+        for size in sizes:
+            for name in PASSES:
+                row = {"scene": scene.name, "size": list(size), **measure_pass(renderer, camera, size, name, frames)}
+                doc["passes"].append(row)
+                print(f"  {scene.name:8} {size[0]}x{size[1]} {name:12} {row['pass_ms']:9.1f} ms  raw trace "
+                      f"{row['raw_trace_ms']:9.1f} ms  {row['rays'] / 1e6:6.2f} Mrays  efficiency "
+                      f"{row['efficiency']:.2f}  readback {row['gbuffer_readback_ms']:.1f} ms  upload "
+                      f"{row['upload_ms']:.1f} ms", flush=True)
+            # G-buffer: raster (GPU + readback) vs primary rays
+            opts = renderer.options
+            renderer.render(camera, *size, "albedo")
+            raster_ms = renderer.profiler.frame.get("gbuffer", 0.0)
+            opts.set("gbuffer", "rt")
+            renderer.render(camera, *size, "shadows")
+            rt_ms = renderer.profiler.frame.get("gbuffer_rt", 0.0)
+            opts.set("gbuffer", "raster")
+            doc["gbuffer"].append({"scene": scene.name, "size": list(size), "raster_gpu_ms": raster_ms,
+                                   "rt_ms": rt_ms})
+        # thread scaling at the first size
+        size = sizes[0]
+        base = {}
+        for t in threads:
+            set_threads(renderer, t)
+            for name in PASSES[:4]:
+                m = measure_pass(renderer, camera, size, name, 1)
+                if t == threads[0]:
+                    base[name] = m
+                doc["scaling"].append({"scene": scene.name, "size": list(size), "threads": t, "pass": name,
+                                       "pass_ms": m["pass_ms"], "raw_trace_ms": m["raw_trace_ms"],
+                                       "speedup": base[name]["pass_ms"] / m["pass_ms"],
+                                       "raw_speedup": base[name]["raw_trace_ms"] / m["raw_trace_ms"]})
+        set_threads(renderer, cores)
+        renderer.release()
+    # acceleration structure build vs triangle count
+    from rt.tracer import EmbreeTracer
+
+    for level in ((1, 2) if quick else (1, 2, 3, 4, 5)):
+        scene = load_scene(f"park:{level}")
+        before = _rss_mb()
+        t0 = time.perf_counter()
+        tracer = EmbreeTracer(scene.positions, scene.indices)
+        build = time.perf_counter() - t0
+        doc["bvh"].append({"scene": f"park:{level}", "triangles": scene.triangle_count, "build_s": build,
+                           "memory_mb": _rss_mb() - before})
+        print(f"  BVH park:{level}: {scene.triangle_count:,} triangles, {build:.2f} s, "
+              f"+{doc['bvh'][-1]['memory_mb']:.0f} MB")
+        tracer.close()
+        del tracer, scene
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text(out / "perf.json", json.dumps(doc, indent=1))
+    for row in doc["scaling"]:
+        print(f"  scaling {row['scene']:8} {row['pass']:12} {row['threads']:3d} threads: x{row['speedup']:.2f} "
+              f"(embreex alone x{row['raw_speedup']:.2f})")
+    worst = min(doc["passes"], key=lambda r: r["efficiency"])
+    print(f"min efficiency = {worst['efficiency']:.2f} ({worst['pass']}, {worst['scene']}, "
+          f"{worst['size'][0]}x{worst['size'][1]})")
+    return 0
