@@ -36,8 +36,9 @@ def recommend(rows: list[dict], budget_ms: float | None = None) -> dict:
         q = r.get("quality") or {}
         if effect is None or q.get("gain") is None or r.get("accumulate"):
             continue
-        extra = max(r["frame_ms"]["mean"] - base_ms, 1e-3)
-        cand = {"config": r["config"], "effect": effect, "gain": q["gain"], "extra_ms": extra,
+        delta = r["frame_ms"]["mean"] - base_ms  # negative: cheaper than the forward baseline here
+        extra = max(delta, 1e-3)
+        cand = {"config": r["config"], "effect": effect, "gain": q["gain"], "extra_ms": extra, "delta_ms": delta,
                 "gain_per_ms": q["gain"] / extra}
         if cand["gain"] >= MIN_GAIN and (effect not in best or cand["gain_per_ms"] > best[effect]["gain_per_ms"]):
             best[effect] = cand

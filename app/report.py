@@ -88,7 +88,8 @@ def recommendation_rows(doc: dict, budget_ms) -> list[list[str]]:
         rec = recommend([r for r in doc["results"] if r["scene"] == scene], budget_ms)
         base = scene.partition(":")[0]
         archetype, study = STUDY.get(base, ("(not a study archetype)", "–"))
-        why = "; ".join(f"{c['config']}: gain {c['gain']:.3f} for +{c['extra_ms']:.0f} ms" for c in rec["chosen"])
+        why = "; ".join(f"{c['config']}: gain {c['gain']:.3f} for {c.get('delta_ms', c['extra_ms']):+.0f} ms"
+                        for c in rec["chosen"])
         rows.append([scene, rec["text"], why or "–", archetype, study])
     return rows
 

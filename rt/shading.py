@@ -53,9 +53,9 @@ class SceneData:
         self.uvs = f32(scene.uvs)
         self.indices = np.ascontiguousarray(scene.indices, np.int32)
         self.material_ids = np.ascontiguousarray(scene.material_ids, np.int32)
-        p = scene.positions[scene.indices].astype(np.float64)
-        cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        length = np.linalg.norm(cross, axis=1)
+        p0, p1, p2 = (self.positions[self.indices[:, k]] for k in range(3))
+        cross = np.cross(p1 - p0, p2 - p0)
+        length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
         self.tri_area = f32(0.5 * length)
         self.face_normals = f32(cross / np.maximum(length, 1e-30)[:, None])
         mats = scene.materials

@@ -161,6 +161,15 @@ def quad() -> Mesh:
                 np.array([[0, 1, 2], [0, 2, 3]]))
 
 
+def normal_matrix(lin: np.ndarray) -> np.ndarray:
+    """(K,3,3) matrices that carry normals: the cofactor matrix (det x inverse-transpose),
+    which also exists for flattened (singular) scales; sign-corrected for mirrors."""
+    r0, r1, r2 = lin[..., 0, :], lin[..., 1, :], lin[..., 2, :]
+    cof = np.stack([np.cross(r1, r2), np.cross(r2, r0), np.cross(r0, r1)], axis=-2)
+    sign = np.where(np.linalg.det(lin) < 0, -1.0, 1.0)
+    return cof * sign[..., None, None]
+
+
 def merge(meshes) -> Mesh:
     offs = np.cumsum([0] + [m.positions.shape[0] for m in meshes])
     return Mesh(np.concatenate([m.positions for m in meshes]), np.concatenate([m.normals for m in meshes]),
@@ -170,7 +179,7 @@ def merge(meshes) -> Mesh:
 
 def transform(mesh: Mesh, m4: np.ndarray) -> Mesh:
     p = mesh.positions @ m4[:3, :3].T + m4[:3, 3]
-    n = mesh.normals @ np.linalg.inv(m4[:3, :3])
+    n = mesh.normals @ normal_matrix(m4[:3, :3]).T
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     return Mesh(p, n, mesh.uvs.copy(), mesh.indices.copy())
 
@@ -205,8 +214,8 @@ class SceneBuilder:
         if mats.shape[0] == 0:
             return
         lin = mats[:, :3, :3]
-        pos = np.einsum("kij,vj->kvi", lin, mesh.positions) + mats[:, None, :3, 3]
-        nrm = np.einsum("kji,vj->kvi", np.linalg.inv(lin), mesh.normals)
+        pos = np.matmul(mesh.positions[None], lin.transpose(0, 2, 1)) + mats[:, None, :3, 3]
+        nrm = np.matmul(mesh.normals[None], normal_matrix(lin).transpose(0, 2, 1))
         nrm /= np.maximum(np.linalg.norm(nrm, axis=2, keepdims=True), 1e-12)
         k, v = pos.shape[:2]
         flip = np.linalg.det(lin) < 0  # mirrored instances keep counter-clockwise winding

@@ -46,6 +46,15 @@ def test_window_behaviour(display, name):
     run_check(name)
 
 
+def test_soak_short(display):
+    run_check("soak_short")
+
+
+@pytest.mark.slow
+def test_soak_long(display):
+    run_check("soak_long", timeout=3600)
+
+
 def test_fly_camera_logic():
     from app.camera import Camera
 

@@ -121,6 +121,53 @@ def test_ray_tracing_does_not_block_the_window():
         v.close()
 
 
+def _rss_mb():
+    import os
+
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def soak(frames: int):
+    """Switch scenes, passes and sizes rapidly, hold keys, minimise: no crash, memory flat."""
+    from app.fly_camera import FlyInput
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(scene="arcade", size="160x100"))
+    passes = ["forward", "ao", "albedo", "shadows", "hybrid", "normal"]
+    try:
+        warm = None
+        for i in range(frames):
+            if i % 50 == 0:
+                v.request_scene(["arcade", "cafe"][(i // 50) % 2])
+            if i % 7 == 0:
+                v.pass_name = passes[(i // 7) % len(passes)]
+            if i % 90 == 45:
+                v.glfw.set_window_size(v.window, 1, 1)
+            if i % 90 == 60:
+                v.glfw.set_window_size(v.window, 160 + (i % 3) * 40, 100)
+            v.glfw.poll_events()
+            v.fly.update(0.016, FlyInput(move=(0.0, 0.0, 1.0), look=(1.0, 0.0)))  # keys held down
+            v.frame(0.016)
+            if i == frames // 4:
+                v.wait_for_frame()
+                warm = _rss_mb()
+        v.wait_for_frame()
+        grown = _rss_mb() - warm
+        print(f"soak: {frames} frames, memory grew {grown:.1f} MB after warm-up")
+        assert grown < 60, f"memory grew by {grown:.1f} MB"
+    finally:
+        v.close()
+
+
+def test_soak_short():
+    soak(300)
+
+
+def test_soak_long():
+    soak(2000)
+
+
 if __name__ == "__main__":
     name = sys.argv[1]
     fn = globals()["test_" + name]

@@ -1,6 +1,7 @@
 """Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply)."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from app.errors import UserError
@@ -10,6 +11,14 @@ EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
 
 def load_scene(spec: str):
     """Built-in name (optionally `name:detail`) or a path. Raises UserError with one clear line."""
+    scene = _load(spec)
+    if not scene.has_light:
+        warnings.warn(f"{scene.name}: no lights and no emissive surfaces: only the environment (env=...) and "
+                      "ambient occlusion will show", stacklevel=2)
+    return scene
+
+
+def _load(spec: str):
     from scenes.builtin import BUILTINS, build_builtin, is_builtin
 
     if is_builtin(spec):

@@ -48,3 +48,30 @@ def compute_normals(positions: np.ndarray, tris: np.ndarray) -> np.ndarray:
     for k in range(3):
         np.add.at(vn, tris[:, k], fn)
     return vn.astype(np.float32)
+
+
+# Bytes per triangle and per vertex across every copy rtlab makes: the scene model, the GPU
+# buffers, the tracer's shading arrays and Embree's BVH. Measured without GL: 0.96 GB peak for
+# park:5 (2.25M triangles, 4.5M vertices); these constants allow about twice that.
+BYTES_PER_TRIANGLE = 600
+BYTES_PER_VERTEX = 160
+
+
+def available_memory() -> int:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 1 << 62  # unknown: do not refuse
+
+
+def check_memory(triangles: int, vertices: int, what: str) -> None:
+    """Refuse a scene that would not fit in memory, before anything large is allocated."""
+    need = triangles * BYTES_PER_TRIANGLE + vertices * BYTES_PER_VERTEX
+    have = available_memory()
+    if need > have * 0.8:
+        raise UserError(f"{what}: too large for this machine: {triangles:,} triangles need about "
+                        f"{need / 2**30:.1f} GiB, {have / 2**30:.1f} GiB is available")

@@ -15,7 +15,7 @@ from urllib.parse import unquote
 import numpy as np
 
 from app.errors import UserError
-from scenes.loaders.common import compute_normals, decode_image, safe_child
+from scenes.loaders.common import check_memory, compute_normals, decode_image, safe_child
 from scenes.model import Environment, Light, Material, Scene, View
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -187,8 +187,26 @@ class _Reader:
         out.append(Material("gltf_default", (1, 1, 1, 1), None, 1.0, 1.0))  # glTF's default material
         return out
 
+    def estimate(self) -> tuple[int, int]:
+        """Triangles and vertices the file would expand to (instances counted), from its JSON."""
+        doc = self.doc
+        per_mesh = []
+        for mesh in doc.get("meshes", []):
+            tris = verts = 0
+            for prim in mesh.get("primitives", []):
+                if prim.get("mode", 4) != 4:
+                    continue
+                v = int(doc["accessors"][prim["attributes"]["POSITION"]]["count"])
+                i = int(doc["accessors"][prim["indices"]]["count"]) if "indices" in prim else v
+                tris, verts = tris + i // 3, verts + v
+            per_mesh.append((tris, verts))
+        tris = sum(per_mesh[n["mesh"]][0] for n in doc.get("nodes", []) if "mesh" in n)
+        verts = sum(per_mesh[n["mesh"]][1] for n in doc.get("nodes", []) if "mesh" in n)
+        return tris, verts
+
     def scene(self) -> Scene:
         doc = self.doc
+        check_memory(*self.estimate(), self.path.name)
         mats = self.materials()
         default_mat = len(mats) - 1
         pos, nrm, uvs, idx, mid = [], [], [], [], []
@@ -208,6 +226,8 @@ class _Reader:
                         continue  # points and lines carry no surface
                     attrs = prim["attributes"]
                     p = self.accessor(attrs["POSITION"]).astype(np.float32)
+                    if not np.isfinite(p).all() or not np.isfinite(m).all():
+                        raise UserError(f"{self.path.name}: non-finite vertex positions in mesh {node['mesh']}")
                     if "indices" in prim:
                         tri = self.accessor(prim["indices"]).astype(np.int64).reshape(-1, 3)
                     else:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import UserError
-from scenes.loaders.common import compute_normals, safe_child, srgb_to_linear
+from scenes.loaders.common import check_memory, compute_normals, safe_child, srgb_to_linear
 from scenes.model import Environment, Material, Scene
 
 REFERENCE = re.compile(rb"^\s*(mtllib|map_Kd|map_Ka|map_Ks|map_Bump|bump|map_d|map_Ke|norm)\s+(.+?)\s*$",
@@ -70,6 +70,9 @@ def load_mesh_file(path: Path) -> Scene:
 
     if path.suffix.lower() == ".obj":
         check_references(path)
+    # text OBJ/PLY: ~30 bytes per vertex or face line; binary PLY: ~12 per vertex, 13 per face
+    size = path.stat().st_size
+    check_memory(size // 13, size // 12, path.name)
     try:
         loaded = trimesh.load(str(path), force="scene", process=False)
     except UserError:
