@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
+from rt import kernels
 from rt.shading import hemisphere
 
 
@@ -28,10 +29,10 @@ def ambient_occlusion(rf) -> np.ndarray:
     open_count = np.zeros(len(s), np.float32)
     for _ in range(rays):
         o, d, above = hemisphere(rf.data, s, rng)
-        idx = np.flatnonzero(above)  # a direction below the true surface counts as occluded
+        idx = kernels.compact_valid(above, o, d)  # a direction below the true surface counts as occluded
         if idx.size:
-            open_count[idx] += ~rf.tracer.occluded(o[idx], d[idx], radius)
-    return open_count / rays
+            kernels.add_open(open_count, idx, rf.tracer.occluded(o[:idx.size], d[:idx.size], radius))
+    return open_count / np.float32(rays)
 
 
 class AOPass:
@@ -45,6 +46,8 @@ class AOPass:
     def execute(self, rf) -> dict:
         ao = ambient_occlusion(rf)
         out = rf.background()
-        value = ao[:, None] * (1.0 if rf.options.get("ao.greyscale") else rf.gb.surface.albedo)
-        out[rf.gb.index] = np.broadcast_to(value, (len(ao), 3))
+        s = rf.gb.surface
+        albedo = np.ones_like(s.albedo) if rf.options.get("ao.greyscale") else s.albedo
+        zero = np.zeros_like(s.albedo)
+        kernels.scatter_lit(out, rf.gb.index, zero, albedo, np.float32(1.0), np.repeat(ao[:, None], 3, 1), zero)
         return {"radiance": out, "rt_ao": rf.full(ao, fill=1.0)}

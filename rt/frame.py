@@ -35,7 +35,9 @@ class RtFrame:
 
     def full(self, values: np.ndarray, fill=0.0) -> np.ndarray:
         """Scatter per-covered-pixel values into a full image array."""
-        shape = (self.gb.n,) + values.shape[1:]
-        out = np.full(shape, fill, np.float32)
-        out[self.gb.index] = values
+        from rt.kernels import scatter_rows
+
+        out = np.full((self.gb.n,) + values.shape[1:], fill, np.float32)
+        v = np.ascontiguousarray(values, np.float32)
+        scatter_rows(out.reshape(self.gb.n, -1), self.gb.index, v.reshape(v.shape[0], -1))
         return out

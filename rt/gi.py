@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
+from rt import kernels
 from rt.shading import INV_PI, direct_one, hemisphere, trace_from
 
 
@@ -28,12 +29,13 @@ def incoming_indirect(rf, s, rng, bounces: int, shadowed: bool) -> np.ndarray:
     """One-sample estimate of the radiance arriving along a cosine-sampled direction."""
     o, d, valid = hemisphere(rf.data, s, rng)
     out = np.zeros((len(s), 3), np.float32)
-    above = np.flatnonzero(valid)
-    if not above.size:
+    above = kernels.compact_valid(valid, o, d)  # rays below the true surface carry nothing
+    m = above.size
+    if not m:
         return out
-    hit, sh, miss = trace_from(rf.data, rf.tracer, s.take(above), d[above], o[above])
-    if miss.size:
-        out[above[miss]] = rf.environment.radiance(d[above[miss]])
+    hit, sh, miss = trace_from(rf.data, rf.tracer, None, d[:m], o[:m])
+    if miss.size and rf.environment.kind != "black":
+        out[above[miss]] = rf.environment.radiance(d[miss])
     if hit.size:
         hrng = rng.subset(above[hit])
         radiance = sh.albedo * INV_PI * direct_one(rf.data, rf.tracer, sh, hrng, shadowed)
@@ -68,5 +70,5 @@ class GIPass:
         direct = direct_one(rf.data, rf.tracer, s, rng, rf.options.get("gi.shadows"))
         indirect = indirect_light(rf, s, rng)
         out = rf.background()
-        out[rf.gb.index] = s.emissive + s.albedo * (INV_PI * direct + indirect)
+        kernels.scatter_lit(out, rf.gb.index, s.emissive, s.albedo, INV_PI, direct, indirect)
         return {"radiance": out, "rt_indirect": rf.full(indirect)}

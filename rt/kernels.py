@@ -418,3 +418,43 @@ def pack_rgba_flipped(image, height, width, channels, out):
                 out[r, x, a] = image[p, 0]
             else:
                 out[r, x, a] = 1.0 if a == 3 else 0.0
+
+
+@njit(cache=True)
+def compact_valid(valid, origin, direction):
+    """Indices of valid rays, with their origins and directions packed in front."""
+    n = valid.shape[0]
+    idx = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        if valid[i]:
+            idx[m] = i
+            if m != i:
+                origin[m, 0], origin[m, 1], origin[m, 2] = origin[i, 0], origin[i, 1], origin[i, 2]
+                direction[m, 0], direction[m, 1], direction[m, 2] = direction[i, 0], direction[i, 1], direction[i, 2]
+            m += 1
+    return idx[:m]
+
+
+@njit(cache=True, parallel=True)
+def add_open(count, idx, blocked):
+    for j in prange(idx.shape[0]):
+        if not blocked[j]:
+            count[idx[j]] += 1.0
+
+
+@njit(cache=True, parallel=True)
+def scatter_rows(out, idx, values):
+    """out[idx[j]] = values[j] for (M,C) values."""
+    for j in prange(idx.shape[0]):
+        for a in range(values.shape[1]):
+            out[idx[j], a] = values[j, a]
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def scatter_lit(out, idx, emissive, albedo, scale, light, extra):
+    """out[idx[j]] = emissive + albedo * (scale * light + extra): diffuse shading into an image."""
+    for j in prange(idx.shape[0]):
+        i = idx[j]
+        for a in range(3):
+            out[i, a] = emissive[j, a] + albedo[j, a] * (scale * light[j, a] + extra[j, a])

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
+from rt import kernels
 from rt.shading import INV_PI, direct_all, direct_one
 
 
@@ -38,8 +39,9 @@ class ShadowsPass:
         s = rf.gb.surface
         e = direct_irradiance(rf)
         out = rf.background()
+        zero = np.zeros_like(e)
         if rf.options.get("shadows.greyscale"):
-            out[rf.gb.index] = e * INV_PI
+            kernels.scatter_lit(out, rf.gb.index, zero, np.ones_like(e), INV_PI, e, zero)
         else:
-            out[rf.gb.index] = s.emissive + s.albedo * INV_PI * e
+            kernels.scatter_lit(out, rf.gb.index, s.emissive, s.albedo, INV_PI, e, zero)
         return {"radiance": out, "rt_direct": rf.full(e)}

@@ -61,14 +61,16 @@ def test_obj_with_mtl_and_ply(tmp_path):
     (tmp_path / "m.mtl").write_text("newmtl red\nKd 1 0 0\n")
     (tmp_path / "tri.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 -1\nvn 0 1 0\n"
                                       "usemtl red\nf 1//1 2//1 3//1\n")
-    s = load_scene(str(tmp_path / "tri.obj"))
+    with pytest.warns(UserWarning, match="no lights"):
+        s = load_scene(str(tmp_path / "tri.obj"))
     assert s.triangle_count == 1 and not s.lights
     np.testing.assert_allclose(s.materials[0].base_color[:3], [1, 0, 0], atol=1e-6)
     np.testing.assert_allclose(s.normals[0], [0, 1, 0], atol=1e-6)
     (tmp_path / "t.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                                     "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
-    s = load_scene(str(tmp_path / "t.ply"))
+    with pytest.warns(UserWarning, match="no lights"):
+        s = load_scene(str(tmp_path / "t.ply"))
     assert s.triangle_count == 1
     np.testing.assert_allclose(np.abs(s.normals[0]), [0, 0, 1], atol=1e-6)
 
