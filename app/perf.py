@@ -47,10 +47,11 @@ def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frame
     renderer.render(camera, *size, pass_name)  # warm-up (JIT, caches)
     pass_ms, raw_s, rays, other = [], [], [], {}
     for _ in range(frames):
-        tracer.recording = []
-        renderer.render(camera, *size, pass_name)
-        batches, tracer.recording = tracer.recording, None
+        renderer.render(camera, *size, pass_name)  # timed without recording: copies would bias it
         pass_ms.append(renderer.profiler.frame[pass_name])
+        tracer.recording = []
+        renderer.render(camera, *size, pass_name)  # the same work again, its rays kept for the replay
+        batches, tracer.recording = tracer.recording, None
         raw_s.append(tracer.replay(batches))
         rays.append(sum(b[1].shape[0] for b in batches))
         for k in ("gbuffer", "gbuffer_readback", "upload"):
