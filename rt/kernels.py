@@ -247,10 +247,13 @@ def hemisphere_rays(P, N, NG, keys, dim, eps, origin, direction, valid):
         phi = TWO_PI * u1
         x, y = r * math.cos(phi), r * math.sin(phi)
         z = math.sqrt(max(0.0, 1.0 - u0))
-        t, b = _basis(nx, ny, nz)
-        dx = t[0] * x + b[0] * y + nx * z
-        dy = t[1] * x + b[1] * y + ny * z
-        dz = t[2] * x + b[2] * y + nz * z
+        # orthonormal basis about n (Duff et al. 2017), written out so it stays inline
+        sign = 1.0 if nz >= 0 else -1.0
+        a = -1.0 / (sign + nz)
+        b = nx * ny * a
+        dx = (1 + sign * nx * nx * a) * x + b * y + nx * z
+        dy = sign * b * x + (sign + ny * ny * a) * y + ny * z
+        dz = -sign * nx * x - ny * y + nz * z
         direction[i, 0], direction[i, 1], direction[i, 2] = dx, dy, dz
         s = _offset_scale(eps, P[i, 0], P[i, 1], P[i, 2])
         origin[i, 0] = P[i, 0] + NG[i, 0] * s
