@@ -5,7 +5,6 @@ from app.raster.channel_view import CHANNEL_VIEWS
 RASTER = ("forward",)
 RAY_TRACED = ("shadows", "reflections", "gi", "ao", "hybrid", "reference")
 ALL = RASTER + RAY_TRACED + CHANNEL_VIEWS
-AVAILABLE = ALL
 
 
 def RT_PASSES() -> dict:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.errors import UserError
-from app.passes import ALL, AVAILABLE
+from app.passes import ALL
 
 KEYS_HELP = [
     ("W A S D", "move"), ("Q / E", "down / up"), ("right mouse drag", "look"), ("Shift / Ctrl", "faster / slower"),
@@ -97,10 +97,7 @@ class Panel:
             idx = ALL.index(v.pass_name)
             changed, idx = imgui.combo("pass", idx, list(ALL))
             if changed:
-                if ALL[idx] in AVAILABLE:
-                    v.pass_name = ALL[idx]
-                else:
-                    self.error = f"pass {ALL[idx]!r} needs the ray tracer (not in this build)"
+                v.pass_name = ALL[idx]
             for key in ("exposure", "env", "accumulate", "max_frames", "gbuffer"):
                 self._option(imgui, key)
             _, v.resolution_scale = imgui.slider_float("resolution scale", v.resolution_scale, 0.25, 1.0, "%.2f")

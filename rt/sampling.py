@@ -1,4 +1,4 @@
-"""Random numbers and directions shared by every ray-traced pass.
+"""Per-pixel random numbers shared by every ray-traced pass (the kernels draw the same ones).
 
 Random numbers are a hash of (seed, frame, pixel, dimension): the same command gives the
 same image, and any pixel's sequence can be reproduced on its own.
@@ -55,38 +55,3 @@ class PixelRng:
         r = PixelRng.__new__(PixelRng)
         r.key, r._dim = self.key[index], self._dim
         return r
-
-
-def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tangent and bitangent for unit normals (N,3) (Duff et al. 2017, branchless)."""
-    sign = np.where(n[:, 2] >= 0, 1.0, -1.0).astype(np.float32)
-    a = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    t = np.stack([1 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], 1)
-    bt = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], 1)
-    return t.astype(np.float32), bt.astype(np.float32)
-
-
-def cosine_hemisphere(n: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Cosine-weighted unit directions around unit normals n (N,3), from uniforms u (N,2)."""
-    r = np.sqrt(u[:, 0])
-    phi = np.float32(2 * np.pi) * u[:, 1]
-    x, y = r * np.cos(phi), r * np.sin(phi)
-    z = np.sqrt(np.maximum(0.0, 1.0 - u[:, 0]))
-    t, b = orthonormal_basis(n)
-    d = t * x[:, None] + b * y[:, None] + n * z[:, None]
-    return d.astype(np.float32)
-
-
-def uniform_cone(axis: np.ndarray, cos_max: float, u: np.ndarray) -> np.ndarray:
-    """Uniform directions within a cone of half-angle acos(cos_max) around unit axes (N,3)."""
-    cos_t = 1.0 - u[:, 0] * (1.0 - cos_max)
-    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
-    phi = np.float32(2 * np.pi) * u[:, 1]
-    t, b = orthonormal_basis(axis)
-    d = t * (sin_t * np.cos(phi))[:, None] + b * (sin_t * np.sin(phi))[:, None] + axis * cos_t[:, None]
-    return d.astype(np.float32)
-
-
-def normalize(v: np.ndarray) -> np.ndarray:
-    return (v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-20)).astype(np.float32)

@@ -104,22 +104,6 @@ class SceneData:
         return (s.p + ng * scale).astype(np.float32)
 
 
-def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear lookup with repeat wrapping; uv (0,0) is the image's top-left (glTF)."""
-    h, w = tex.shape[:2]
-    x = uv[:, 0] * w - 0.5
-    y = uv[:, 1] * h - 0.5
-    x0 = np.floor(x)
-    y0 = np.floor(y)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    x0 = x0.astype(np.int64) % w
-    y0 = y0.astype(np.int64) % h
-    x1, y1 = (x0 + 1) % w, (y0 + 1) % h
-    top = tex[y0, x0, :3] * (1 - fx) + tex[y0, x1, :3] * fx
-    bottom = tex[y1, x0, :3] * (1 - fx) + tex[y1, x1, :3] * fx
-    return (top * (1 - fy) + bottom * fy).astype(np.float32)
-
-
 class LightSet:
     """Analytic lights plus one light per emissive cluster, as flat arrays for the kernels."""
 

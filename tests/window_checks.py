@@ -17,12 +17,12 @@ def view_args(scene="arcade", pass_name="forward", size="320x200", **kw):
 
 
 def test_every_mode_renders_in_a_window():
-    from app.passes import AVAILABLE
+    from app.passes import ALL
     from app.viewer import Viewer
 
     v = Viewer(view_args(size="200x120"))
     try:
-        for name in AVAILABLE:
+        for name in ALL:
             v.pass_name = name
             for _ in range(2):
                 v.frame(0.016)
