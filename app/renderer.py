@@ -139,9 +139,11 @@ class Renderer:
         """GL work before the CPU part: G-buffer, raster passes. None: the last frame still holds."""
         check_pass(pass_name)
         state = self.state_of(camera, width, height, pass_name)
+        max_frames = int(self.options.get("max_frames"))
+        converged = bool(self.options.get("accumulate")) and max_frames and self.accumulation.count >= max_frames
         if (self.reuse_static_frames and state == self._state and self.frame is not None
-                and self.deterministic(pass_name)):
-            return None
+                and (self.deterministic(pass_name) or converged)):
+            return None  # nothing would change: show the last frame
         if state != self._state:
             self.accumulation.reset()
             self._state = state
