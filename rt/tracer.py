@@ -46,6 +46,9 @@ def default_threads() -> int:
 
 
 class EmbreeTracer(Tracer):
+    # chunks_per_thread: measured on the 2-core machine with 0.9M incoherent rays, 1 to 64 chunks
+    # per thread were within 5 % of each other (occluded ~44 ms, intersect ~88 ms); 4 keeps threads
+    # busy when some chunks are cheap (sky rays) without per-call overhead from tiny chunks.
     def __init__(self, positions: np.ndarray, indices: np.ndarray, threads: int | None = None,
                  chunks_per_thread: int = 4, min_chunk: int = 4096):
         from embreex import rtcore_scene as rtcs
