@@ -53,9 +53,10 @@ def draw_option(imgui, options, key: str) -> bool:
 
 
 def option_keys_for(options, pass_name: str) -> list[str]:
-    group = "forward" if pass_name in ("forward", "hybrid") else pass_name
-    keys = [k for k in options.keys() if k.startswith(group + ".")]
-    return keys
+    """The option keys the active pass reads (hybrid: its toggles, then the swapped effects' own)."""
+    groups = {"hybrid": ["hybrid", "shadows", "ao", "reflections", "gi", "forward"],
+              "reference": ["reference", "reflections"]}.get(pass_name, [pass_name])
+    return [k for g in groups for k in options.keys() if k.startswith(g + ".")]
 
 
 class Panel:
