@@ -8,7 +8,6 @@ import numpy as np
 
 from app.options import opt, register_group
 from rt import kernels
-from rt.shading import hemisphere
 
 
 @dataclass
@@ -26,12 +25,24 @@ def ambient_occlusion(rf) -> np.ndarray:
     rays = rf.options.get("ao.rays_per_pixel")
     radius = np.float32(rf.options.get("ao.radius"))
     rng = rf.rng(2)
-    open_count = np.zeros(len(s), np.float32)
+    n = len(s)
+    open_count = np.zeros(n, np.float32)
+    o, d = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+    valid = np.empty(n, np.bool_)
+    tmax = np.full(n, radius, np.float32)
+    live = {}
     for _ in range(rays):
-        o, d, above = hemisphere(rf.data, s, rng)
-        idx = kernels.compact_valid(above, o, d)  # a direction below the true surface counts as occluded
-        if idx.size:
-            kernels.add_open(open_count, idx, rf.tracer.occluded(o[:idx.size], d[:idx.size], radius))
+        dim = rng.reserve(2)
+
+        def make(c, dim=dim):
+            kernels.hemisphere_rays_chunk(s.p[c], s.n[c], s.ng[c], rng.key[c], dim, rf.data.eps, o[c], d[c], valid[c])
+            idx = live[c.start] = kernels.compact_valid(valid[c], o[c], d[c])  # below the surface: occluded
+            return o[c][:idx.size], d[c][:idx.size], tmax[c][:idx.size].copy()
+
+        def use(c, blocked):
+            kernels.add_open_chunk(open_count[c], live[c.start], blocked)
+
+        rf.tracer.occlusion_pipeline(n, make, use)
     return open_count / np.float32(rays)
 
 

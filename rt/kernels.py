@@ -311,7 +311,7 @@ def shade_hits(prim, bu, bv, t, O, D, positions, normals, uvs, indices, material
         emis[i, 0], emis[i, 1], emis[i, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def compact(e, origin, direction, tmax):
     """Indices of rays that carry light, and their origin/direction/tmax packed in front."""
     n = e.shape[0]
@@ -423,7 +423,7 @@ def pack_rgba_flipped(image, height, width, channels, out):
                 out[r, x, a] = 1.0 if a == 3 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def compact_valid(valid, origin, direction):
     """Indices of valid rays, with their origins and directions packed in front."""
     n = valid.shape[0]
@@ -461,3 +461,18 @@ def scatter_lit(out, idx, emissive, albedo, scale, light, extra):
         i = idx[j]
         for a in range(3):
             out[i, a] = emissive[j, a] + albedo[j, a] * (scale * light[j, a] + extra[j, a])
+
+
+# Serial, GIL-free twins of the ray kernels, for the tracer's chunk pipeline: each tracing thread
+# generates, traces and consumes its own chunk, so set-up work runs in parallel with tracing.
+# (Not cached: a cache entry per Python function would clash with the parallel twin's.)
+def _serial(kernel):
+    return njit(nogil=True, fastmath=True)(kernel.py_func)
+
+
+analytic_rays_chunk = _serial(analytic_rays)
+cluster_rays_chunk = _serial(cluster_rays)
+one_light_rays_chunk = _serial(one_light_rays)
+hemisphere_rays_chunk = _serial(hemisphere_rays)
+add_unblocked_chunk = _serial(add_unblocked)
+add_open_chunk = _serial(add_open)

@@ -157,16 +157,17 @@ class LightSet:
             data.positions, data.indices, data.face_normals, data.tri_area, self.count_analytic)
         self.data = data
 
-    def rays(self, k: int, s: Surface, keys, dim: int, origin, direction, tmax, e) -> None:
-        """Shadow rays to light k from every point (kernels specialised per light type)."""
+    def rays(self, k: int, s: Surface, c: slice, keys, dim: int, origin, direction, tmax, e) -> None:
+        """Shadow rays to light k from the points in slice c (kernels specialised per light type)."""
         a = self.kernel_args
         eps, far = self.data.eps, self.data.far
+        out = (origin[c], direction[c], tmax[c], e[c])
         if k < self.count_analytic:
-            kernels.analytic_rays(k, s.p, s.n, s.ng, keys, dim, *a[:7], eps, far, origin, direction, tmax, e)
+            kernels.analytic_rays_chunk(k, s.p[c], s.n[c], s.ng[c], keys[c], dim, *a[:7], eps, far, *out)
         else:
-            c = k - self.count_analytic
-            kernels.cluster_rays(a[7][c], a[7][c + 1], s.p, s.n, s.ng, keys, dim, *a[8:18], eps, origin, direction,
-                                 tmax, e)
+            j = k - self.count_analytic
+            kernels.cluster_rays_chunk(a[7][j], a[7][j + 1], s.p[c], s.n[c], s.ng[c], keys[c], dim, *a[8:18], eps,
+                                       *out)
 
     @property
     def count(self) -> int:
@@ -183,16 +184,26 @@ def _buffers(n: int):
             np.empty((n, 3), np.float32))
 
 
-def _add_visible(tracer: Tracer, total, origin, direction, tmax, e, shadowed: bool) -> None:
-    """total += e for rays that reach their light; only rays that carry light are traced."""
+def _gather_light(tracer: Tracer, total, origin, direction, tmax, e, shadowed: bool, fill) -> None:
+    """total += e for rays that reach their light. fill(c) writes the rays of chunk c into the
+    buffers; with shadows, each tracing thread fills, compacts, traces and adds its own chunk."""
+    n = total.shape[0]
     if not shadowed:
+        fill(slice(0, n))
         total += e
         return
-    idx = kernels.compact(e, origin, direction, tmax)  # packs the live rays in front
-    m = idx.size
-    if m:
-        blocked = tracer.occluded(origin[:m], direction[:m], tmax[:m])
-        kernels.add_unblocked(total, e, idx, blocked)
+    live = {}
+
+    def make(c):
+        fill(c)
+        idx = live[c.start] = kernels.compact(e[c], origin[c], direction[c], tmax[c])  # only rays carrying light
+        m = idx.size
+        return origin[c][:m], direction[c][:m], tmax[c][:m].copy()
+
+    def use(c, blocked):
+        kernels.add_unblocked_chunk(total[c], e[c], live[c.start], blocked)
+
+    tracer.occlusion_pipeline(n, make, use)
 
 
 def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
@@ -203,8 +214,10 @@ def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     for k in range(data.lights.count):
         dim = rng.reserve(3)
         if n:
-            data.lights.rays(k, s, rng.key, dim, origin, direction, tmax, e)
-            _add_visible(tracer, total, origin, direction, tmax, e, shadowed)
+            def fill(c, k=k, dim=dim):
+                data.lights.rays(k, s, c, rng.key, dim, origin, direction, tmax, e)
+
+            _gather_light(tracer, total, origin, direction, tmax, e, shadowed, fill)
     return total
 
 
@@ -218,9 +231,13 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     if lights.count == 0 or n == 0:
         return total
     origin, direction, tmax, e = _buffers(n)
-    kernels.one_light_rays(s.p, s.n, s.ng, rng.key, dim, lights.kernel_args, lights.cluster_centre,
-                           lights.cluster_radius, lights.cluster_power, data.eps, data.far, origin, direction, tmax, e)
-    _add_visible(tracer, total, origin, direction, tmax, e, shadowed)
+
+    def fill(c):
+        kernels.one_light_rays_chunk(s.p[c], s.n[c], s.ng[c], rng.key[c], dim, lights.kernel_args,
+                                     lights.cluster_centre, lights.cluster_radius, lights.cluster_power, data.eps,
+                                     data.far, origin[c], direction[c], tmax[c], e[c])
+
+    _gather_light(tracer, total, origin, direction, tmax, e, shadowed, fill)
     return total
 
 

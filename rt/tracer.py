@@ -40,6 +40,13 @@ class Tracer:
         """(N,) bool: something lies between origin and origin + tmax * dir."""
         raise NotImplementedError
 
+    def occlusion_pipeline(self, n: int, make, use) -> None:
+        """make(c) -> (origins, dirs, tmax) for the items in slice c; trace; use(c, blocked).
+        A backend may run chunks concurrently; this default runs one chunk."""
+        c = slice(0, n)
+        o, d, t = make(c)
+        use(c, self.occluded(o, d, t) if o.shape[0] else np.zeros(0, bool))
+
 
 def default_threads() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
@@ -118,13 +125,37 @@ class EmbreeTracer(Tracer):
         self.rays_traced += n
         return out
 
+    def occlusion_pipeline(self, n: int, make, use) -> None:
+        """Per chunk of n items, on the tracing threads: make(c) -> (origins, dirs, tmax) of the
+        chunk's live rays, trace them, then use(c, blocked). Set-up, tracing and consumption
+        of different chunks overlap instead of running as whole-image phases."""
+        counts = []
+
+        def work(c: slice):
+            o, d, t = make(c)
+            blocked = np.zeros(0, bool)
+            if o.shape[0]:
+                if self.recording is not None:
+                    self.recording.append(("occluded_chunk", o.copy(), d.copy(), t.copy()))
+                blocked = self.scene.run(o, d, dists=t, query="OCCLUDED") >= 0
+            counts.append(o.shape[0])
+            use(c, blocked)
+
+        if n:
+            self._map(work, n)
+        self.rays_traced += sum(counts)
+
     def replay(self, batches: list) -> float:
         """Trace recorded batches again, embreex alone with the same chunking and threads;
         returns the seconds spent (the pass's physical limit)."""
         import time
 
         t0 = time.perf_counter()
-        for kind, o, d, dist in batches:
+        chunked = [b for b in batches if b[0] == "occluded_chunk"]  # traced one batch per task, as recorded
+        if chunked:
+            run = lambda b: self.scene.run(b[1], b[2], dists=b[3].copy(), query="OCCLUDED")  # noqa: E731
+            list(self.pool.map(run, chunked)) if self.pool is not None else [run(b) for b in chunked]
+        for kind, o, d, dist in (b for b in batches if b[0] != "occluded_chunk"):
             n = o.shape[0]
             if kind == "intersect":
                 self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=None if t is None
