@@ -188,6 +188,9 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
              f"traced, one frame and {s['quality_frames']} accumulated frames, against the reference path tracer "
              f"converged over {s['reference_frames']} frames; mean FLIP (LDR) and PSNR." if s.get("quality") else
              "Quality was not measured (--no-quality)."), ""]
+    if doc.get("merged_from"):
+        md += [f"Results of {len(doc['merged_from'])} bench runs on this machine, concatenated: "
+               + "; ".join(f"`rtlab {m}`" for m in doc["merged_from"]) + ".", ""]
     sections = []
     for title, header, rows in technique_tables(doc):
         sections.append((title, header, rows))
