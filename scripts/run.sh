@@ -3,7 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-PY=${PYTHON:-python3}
+. scripts/python.sh
 if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
     exec $PY -m app.cli view arcade "$@"
 else

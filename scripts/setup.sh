@@ -3,7 +3,7 @@
 # (window tests), then the Python package with its dev extra. Safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-PY=${PYTHON:-python3}
+. scripts/python.sh
 
 missing=()
 ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1 ' || missing+=(libegl1)
