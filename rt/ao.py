@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt import kernels
+from rt import kernels, raygen, scratch
 
 
 @dataclass
@@ -20,29 +20,19 @@ class AOOptions:
 register_group("ao", AOOptions)
 
 
-def ambient_occlusion(rf) -> np.ndarray:
-    s = rf.gb.surface
-    rays = rf.options.get("ao.rays_per_pixel")
-    radius = np.float32(rf.options.get("ao.radius"))
-    rng = rf.rng(2)
+def ambient_occlusion(cf) -> np.ndarray:
+    """Fraction of a chunk's occlusion rays that escape, per pixel."""
+    s = cf.s
+    rays = cf.options.get("ao.rays_per_pixel")
+    radius = np.float32(cf.options.get("ao.radius"))
+    rng = cf.rng(2)
     n = len(s)
     open_count = np.zeros(n, np.float32)
-    o, d = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
-    valid = np.empty(n, np.bool_)
-    tmax = np.full(n, radius, np.float32)
-    live = {}
+    o, d, t, idx = scratch.rays("ao", n)
     for _ in range(rays):
-        dim = rng.reserve(2)
-
-        def make(c, dim=dim):
-            kernels.hemisphere_rays_chunk(s.p[c], s.n[c], s.ng[c], rng.key[c], dim, rf.data.eps, o[c], d[c], valid[c])
-            idx = live[c.start] = kernels.compact_valid(valid[c], o[c], d[c])  # below the surface: occluded
-            return o[c][:idx.size], d[c][:idx.size], tmax[c][:idx.size].copy()
-
-        def use(c, blocked):
-            kernels.add_open_chunk(open_count[c], live[c.start], blocked)
-
-        rf.tracer.occlusion_pipeline(n, make, use)
+        m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, radius, o, d, t, idx)
+        blocked = cf.tracer.occluded(o[:m], d[:m], t[:m]) if m else np.zeros(0, np.bool_)
+        raygen.add_open(open_count, idx, blocked, m)  # rays below the true surface count as occluded
     return open_count / np.float32(rays)
 
 
@@ -55,10 +45,16 @@ class AOPass:
         pass
 
     def execute(self, rf) -> dict:
-        ao = ambient_occlusion(rf)
-        out = rf.background()
-        s = rf.gb.surface
-        albedo = np.ones_like(s.albedo) if rf.options.get("ao.greyscale") else s.albedo
-        zero = np.zeros_like(s.albedo)
-        kernels.scatter_lit(out, rf.gb.index, zero, albedo, np.float32(1.0), np.repeat(ao[:, None], 3, 1), zero)
-        return {"radiance": out, "rt_ao": rf.full(ao, fill=1.0)}
+        out, ao_image = rf.background(), rf.image(1, fill=1.0)
+        grey = rf.options.get("ao.greyscale")
+
+        def work(cf):
+            ao = ambient_occlusion(cf)
+            s = cf.s
+            albedo = np.ones_like(s.albedo) if grey else s.albedo
+            zero = np.zeros_like(s.albedo)
+            kernels.scatter_lit(out, cf.idx, zero, albedo, np.float32(1.0), np.repeat(ao[:, None], 3, 1), zero)
+            cf.put(ao_image, ao)
+
+        rf.for_chunks(work)
+        return {"radiance": out, "rt_ao": ao_image}

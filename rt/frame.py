@@ -27,11 +27,23 @@ class RtFrame:
 
     def background(self) -> np.ndarray:
         """(N,3) image holding the environment's radiance; passes fill in covered pixels."""
-        out = np.zeros((self.gb.n, 3), np.float32)
-        miss = ~self.gb.covered
-        if miss.any() and self.environment.kind != "black":
-            out[miss] = self.environment.radiance(self.gb.view_dir[miss])
+        from rt.kernels import background_fill
+        from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
+
+        env = self.environment
+        out = np.empty((self.gb.n, 3), np.float32)
+        kind = {"black": 0, "constant": 1, "sky": 2}[env.kind]
+        color = np.asarray(env.color if kind == 1 else (env.strength, 0, 0), np.float32)
+        background_fill(out, self.gb.view_dir, self.gb.covered, kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND)
         return out
+
+    def for_chunks(self, work) -> None:
+        """work(ChunkFrame) for runs of covered pixels, on the tracer's threads."""
+        self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)))
+
+    def image(self, channels: int = 3, fill=0.0) -> np.ndarray:
+        """An (N, channels) full-image array for chunks to write their pixels into."""
+        return np.full((self.gb.n, channels), fill, np.float32)
 
     def full(self, values: np.ndarray, fill=0.0) -> np.ndarray:
         """Scatter per-covered-pixel values into a full image array."""
@@ -41,3 +53,28 @@ class RtFrame:
         v = np.ascontiguousarray(values, np.float32)
         scatter_rows(out.reshape(self.gb.n, -1), self.gb.index, v.reshape(v.shape[0], -1))
         return out
+
+
+class ChunkFrame:
+    """An RtFrame restricted to a run c of its covered pixels, with a tracer for this thread."""
+
+    def __init__(self, rf: RtFrame, c: slice, tracer: Tracer):
+        self.frame, self.c, self.tracer = rf, c, tracer
+        self.data, self.environment, self.options = rf.data, rf.environment, rf.options
+        self.s = rf.gb.surface.take(c)  # views
+        self.idx = rf.gb.index[c]
+
+    @property
+    def view(self) -> np.ndarray:
+        """(M,3) unit directions from the eye to these pixels' surfaces."""
+        return self.frame.gb.view_dir[self.idx]
+
+    def rng(self, stream: int) -> PixelRng:
+        return PixelRng(self.frame.seed, self.frame.index, self.idx, stream)
+
+    def put(self, image: np.ndarray, values: np.ndarray) -> None:
+        """Write per-pixel values of this chunk into a full image from RtFrame.image()."""
+        from rt.kernels import scatter_rows
+
+        v = np.ascontiguousarray(values, np.float32)
+        scatter_rows(image, self.idx, v.reshape(v.shape[0], -1))

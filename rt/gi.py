@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt import kernels
-from rt.shading import INV_PI, direct_one, hemisphere, trace_from
+from rt import kernels, raygen, scratch
+from rt.shading import INV_PI, direct_one, trace_from
 
 
 @dataclass
@@ -25,34 +25,32 @@ class GIOptions:
 register_group("gi", GIOptions)
 
 
-def incoming_indirect(rf, s, rng, bounces: int, shadowed: bool) -> np.ndarray:
+def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0) -> np.ndarray:
     """One-sample estimate of the radiance arriving along a cosine-sampled direction."""
-    o, d, valid = hemisphere(rf.data, s, rng)
     out = np.zeros((len(s), 3), np.float32)
-    above = kernels.compact_valid(valid, o, d)  # rays below the true surface carry nothing
-    m = above.size
-    if not m:
-        return out
-    hit, sh, miss = trace_from(rf.data, rf.tracer, None, d[:m], o[:m])
-    if miss.size and rf.environment.kind != "black":
-        out[above[miss]] = rf.environment.radiance(d[miss])
-    if hit.size:
-        hrng = rng.subset(above[hit])
-        radiance = sh.albedo * INV_PI * direct_one(rf.data, rf.tracer, sh, hrng, shadowed)
-        if bounces > 1:
-            radiance += sh.albedo * incoming_indirect(rf, sh, hrng, bounces - 1, shadowed)
-        out[above[hit]] = radiance
+    o, d, _, idx = scratch.rays(f"gi{depth}", len(s))
+    m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, idx)
+    above = idx[:m]  # rays below the true surface carry nothing
+    hit, sh, miss = trace_from(cf.data, cf.tracer, None, d[:m], o[:m])
+    if miss.size and cf.environment.kind != "black":
+        out[above[miss]] = cf.environment.radiance(d[miss])
+    # every step runs even for no hits, so each pixel draws the same numbers however it is chunked
+    hrng = rng.subset(above[hit])
+    radiance = sh.albedo * INV_PI * direct_one(cf.data, cf.tracer, sh, hrng, shadowed)
+    if bounces > 1:
+        radiance += sh.albedo * incoming_indirect(cf, sh, hrng, bounces - 1, shadowed, depth + 1)
+    out[above[hit]] = radiance
     return out
 
 
-def indirect_light(rf, s, rng) -> np.ndarray:
+def indirect_light(cf, s, rng) -> np.ndarray:
     """Mean incoming indirect radiance over gi.rays_per_pixel rays (albedo x this = outgoing)."""
-    rays = rf.options.get("gi.rays_per_pixel")
-    shadowed = rf.options.get("gi.shadows")
-    bounces = rf.options.get("gi.bounces")
+    rays = cf.options.get("gi.rays_per_pixel")
+    shadowed = cf.options.get("gi.shadows")
+    bounces = cf.options.get("gi.bounces")
     total = np.zeros((len(s), 3), np.float32)
     for _ in range(rays):
-        total += incoming_indirect(rf, s, rng, bounces, shadowed)
+        total += incoming_indirect(cf, s, rng, bounces, shadowed)
     return total / rays
 
 
@@ -65,10 +63,15 @@ class GIPass:
         pass
 
     def execute(self, rf) -> dict:
-        s = rf.gb.surface
-        rng = rf.rng(4)
-        direct = direct_one(rf.data, rf.tracer, s, rng, rf.options.get("gi.shadows"))
-        indirect = indirect_light(rf, s, rng)
-        out = rf.background()
-        kernels.scatter_lit(out, rf.gb.index, s.emissive, s.albedo, INV_PI, direct, indirect)
-        return {"radiance": out, "rt_indirect": rf.full(indirect)}
+        out, indirect_image = rf.background(), rf.image()
+        shadowed = rf.options.get("gi.shadows")
+
+        def work(cf):
+            s, rng = cf.s, cf.rng(4)
+            direct = direct_one(cf.data, cf.tracer, s, rng, shadowed)
+            indirect = indirect_light(cf, s, rng)
+            kernels.scatter_lit(out, cf.idx, s.emissive, s.albedo, INV_PI, direct, indirect)
+            cf.put(indirect_image, indirect)
+
+        rf.for_chunks(work)
+        return {"radiance": out, "rt_indirect": indirect_image}

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from app.options import opt, register_group
 from rt.ao import ambient_occlusion
 from rt.gi import indirect_light
-from rt.reflections import ReflectionsPass
+from rt.reflections import reflect
 from rt.shadows import direct_irradiance
 
 
@@ -28,15 +28,30 @@ EFFECTS = ("shadows", "ao", "reflections", "gi")
 def hybrid_components(rf) -> dict:
     """The ray-traced pieces the forward shader swaps in, as full-image arrays."""
     opts = rf.options
+    shadows, reflections, gi = opts.get("hybrid.shadows"), opts.get("hybrid.reflections"), opts.get("hybrid.gi")
+    ao = opts.get("hybrid.ao") and not gi
     out = {}
-    if opts.get("hybrid.shadows"):
-        out["rt_direct"] = rf.full(direct_irradiance(rf))
-    if opts.get("hybrid.ao") and not opts.get("hybrid.gi"):
-        out["rt_ao"] = rf.full(ambient_occlusion(rf), fill=1.0)
-    if opts.get("hybrid.reflections"):
-        out["rt_reflection"] = ReflectionsPass().execute(rf)["rt_reflection"]
-    if opts.get("hybrid.gi"):
-        out["rt_indirect"] = rf.full(indirect_light(rf, rf.gb.surface, rf.rng(6)))
+    if shadows:
+        out["rt_direct"] = rf.image()
+    if ao:
+        out["rt_ao"] = rf.image(1, fill=1.0)
+    if reflections:
+        out["rt_reflection"] = rf.image(4)
+    if gi:
+        out["rt_indirect"] = rf.image()
+
+    def work(cf):
+        if shadows:
+            cf.put(out["rt_direct"], direct_irradiance(cf))
+        if ao:
+            cf.put(out["rt_ao"], ambient_occlusion(cf))
+        if reflections:
+            cf.put(out["rt_reflection"], reflect(cf)[1])
+        if gi:
+            cf.put(out["rt_indirect"], indirect_light(cf, cf.s, cf.rng(6)))
+
+    if out:
+        rf.for_chunks(work)
     return out
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt.shading import INV_PI, LUMA, direct_one, fresnel_schlick, hemisphere, mirror, trace_from
+from rt.shading import INV_PI, LUMA, cosine_directions, direct_one, fresnel_schlick, mirror, trace_from
 
 
 @dataclass
@@ -24,16 +24,15 @@ class ReferenceOptions:
 register_group("reference", ReferenceOptions)
 
 
-def trace_paths(rf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
-    thr = rf.options.get("reflections.roughness_threshold")
+def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
+    """Every step runs even on no points, so each pixel draws the same numbers however it is chunked."""
+    thr = cf.options.get("reflections.roughness_threshold")
     n = len(s)
     radiance = s.emissive.copy()
     beta = np.ones((n, 3), np.float32)
     alive = np.arange(n)
     d_in = view
     for bounce in range(max_bounces + 1):
-        if not alive.size:
-            break
         f = np.where((s.roughness < thr)[:, None], fresnel_schlick(s, d_in), 0).astype(np.float32)
         p_spec = np.clip(f @ LUMA, 0, 1)
         u = rng.next(1)[:, 0]
@@ -42,17 +41,13 @@ def trace_paths(rf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
         w_diff = np.where(diff[:, None], (1 - f) / np.maximum(1 - p_spec, 1e-6)[:, None], 0)
         # next-event estimation at diffuse vertices
         di = np.nonzero(diff)[0]
-        if di.size:
-            e = direct_one(rf.data, rf.tracer, s.take(di), rng.subset(di))
-            radiance[alive[di]] += beta[di] * w_diff[di] * s.albedo[di] * INV_PI * e
+        e = direct_one(cf.data, cf.tracer, s.take(di), rng.subset(di))
+        radiance[alive[di]] += beta[di] * w_diff[di] * s.albedo[di] * INV_PI * e
         if bounce == max_bounces:
             break
-        d = np.empty((len(s), 3), np.float32)
-        _, cos_dirs, _ = hemisphere(rf.data, s, rng)
-        d[di] = cos_dirs[di]
+        d = cosine_directions(s, rng)
         si = np.nonzero(spec)[0]
-        if si.size:
-            d[si] = mirror(d_in[si], s.take(si))
+        d[si] = mirror(d_in[si], s.take(si))
         beta = np.where(spec[:, None], beta * f / np.maximum(p_spec, 1e-6)[:, None], beta * w_diff * s.albedo)
         keep = np.einsum("ij,ij->i", d, s.ng) > 0  # diffuse directions below the true surface carry nothing
         if bounce + 1 >= rr_start:
@@ -60,12 +55,9 @@ def trace_paths(rf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
             keep &= rng.next(1)[:, 0] < q
             beta = beta / q[:, None]
         idx = np.nonzero(keep)[0]
-        hit, sh, miss = trace_from(rf.data, rf.tracer, s.take(idx), d[idx])
-        if miss.size:
-            m = idx[miss]
-            radiance[alive[m]] += beta[m] * rf.environment.radiance(d[m])
-        if not hit.size:
-            break
+        hit, sh, miss = trace_from(cf.data, cf.tracer, s.take(idx), d[idx])
+        m = idx[miss]
+        radiance[alive[m]] += beta[m] * cf.environment.radiance(d[m])
         h = idx[hit]
         spec_h = spec[h]
         radiance[alive[h[spec_h]]] += beta[h[spec_h]] * sh.emissive[spec_h]
@@ -83,10 +75,7 @@ class ReferencePass:
         pass
 
     def execute(self, rf) -> dict:
-        s = rf.gb.surface
-        view = rf.gb.view_dir[rf.gb.index]
-        radiance = trace_paths(rf, s, view, rf.rng(5), rf.options.get("reference.max_bounces"),
-                               rf.options.get("reference.rr_start"))
         out = rf.background()
-        out[rf.gb.index] = radiance
+        bounces, rr = rf.options.get("reference.max_bounces"), rf.options.get("reference.rr_start")
+        rf.for_chunks(lambda cf: cf.put(out, trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr)))
         return {"radiance": out}

@@ -21,34 +21,51 @@ class ReflectionsOptions:
 register_group("reflections", ReflectionsOptions)
 
 
-def shade_local(rf, s, rng, lit: bool) -> np.ndarray:
+def shade_local(cf, s, rng, lit: bool) -> np.ndarray:
     """Colour of a surface without its reflection: diffuse direct light, or the material colour."""
     if lit:
-        return s.albedo * INV_PI * direct_one(rf.data, rf.tracer, s, rng)
+        return s.albedo * INV_PI * direct_one(cf.data, cf.tracer, s, rng)
     return s.albedo.copy()
 
 
-def reflected_radiance(rf, s, incoming, rng, depth: int) -> np.ndarray:
-    """Radiance arriving along the mirror direction at surfaces s, following up to `depth` mirrors."""
-    thr = rf.options.get("reflections.roughness_threshold")
-    lit = rf.options.get("reflections.lit")
+def reflected_radiance(cf, s, incoming, rng, depth: int) -> np.ndarray:
+    """Radiance arriving along the mirror direction at surfaces s, following up to `depth` mirrors.
+    Every step runs even on no points, so each pixel draws the same numbers however it is chunked."""
+    thr = cf.options.get("reflections.roughness_threshold")
+    lit = cf.options.get("reflections.lit")
     d = mirror(incoming, s)
     out = np.zeros((len(s), 3), np.float32)
-    hit, sh, miss = trace_from(rf.data, rf.tracer, s, d)
+    hit, sh, miss = trace_from(cf.data, cf.tracer, s, d)
     if miss.size:
-        out[miss] = rf.environment.radiance(d[miss])
-    if hit.size:
-        hrng = rng.subset(hit)
-        color = sh.emissive + shade_local(rf, sh, hrng, lit)
-        if depth > 1:
-            smooth = np.nonzero(sh.roughness < thr)[0]
-            if smooth.size:
-                ss = sh.take(smooth)
-                f = fresnel_schlick(ss, d[hit][smooth])
-                inner = reflected_radiance(rf, ss, d[hit][smooth], hrng.subset(smooth), depth - 1)
-                color[smooth] = ss.emissive + (1 - f) * (color[smooth] - ss.emissive) + f * inner
-        out[hit] = color
+        out[miss] = cf.environment.radiance(d[miss])
+    hrng = rng.subset(hit)
+    color = sh.emissive + shade_local(cf, sh, hrng, lit)
+    if depth > 1:
+        smooth = np.nonzero(sh.roughness < thr)[0]
+        ss = sh.take(smooth)
+        f = fresnel_schlick(ss, d[hit][smooth])
+        inner = reflected_radiance(cf, ss, d[hit][smooth], hrng.subset(smooth), depth - 1)
+        color[smooth] = ss.emissive + (1 - f) * (color[smooth] - ss.emissive) + f * inner
+    out[hit] = color
     return out
+
+
+def reflect(cf) -> tuple[np.ndarray, np.ndarray]:
+    """A chunk's colour with reflections blended in (without emission), and the reflection
+    itself as RGBA (alpha 1 where a reflection ray was traced)."""
+    s = cf.s
+    rng = cf.rng(3)
+    local = shade_local(cf, s, rng, cf.options.get("reflections.lit"))
+    smooth = np.nonzero(s.roughness < cf.options.get("reflections.roughness_threshold"))[0]
+    reflection = np.zeros((len(s), 4), np.float32)
+    ss = s.take(smooth)
+    view = cf.view[smooth]
+    refl = reflected_radiance(cf, ss, view, rng.subset(smooth), cf.options.get("reflections.max_depth"))
+    f = fresnel_schlick(ss, view)
+    local[smooth] = (1 - f) * local[smooth] + f * refl  # emission is added unblended by the caller
+    reflection[smooth, :3] = refl
+    reflection[smooth, 3] = 1.0
+    return local, reflection
 
 
 class ReflectionsPass:
@@ -60,20 +77,12 @@ class ReflectionsPass:
         pass
 
     def execute(self, rf) -> dict:
-        s = rf.gb.surface
-        rng = rf.rng(3)
-        lit = rf.options.get("reflections.lit")
-        local = shade_local(rf, s, rng, lit)
-        view = rf.gb.view_dir[rf.gb.index]
-        smooth = np.nonzero(s.roughness < rf.options.get("reflections.roughness_threshold"))[0]
-        reflection = np.zeros((len(s), 4), np.float32)
-        if smooth.size:
-            ss = s.take(smooth)
-            refl = reflected_radiance(rf, ss, view[smooth], rng.subset(smooth), rf.options.get("reflections.max_depth"))
-            f = fresnel_schlick(ss, view[smooth])
-            local[smooth] = (1 - f) * local[smooth] + f * refl  # emission is added unblended below
-            reflection[smooth, :3] = refl
-            reflection[smooth, 3] = 1.0
-        out = rf.background()
-        out[rf.gb.index] = s.emissive + local
-        return {"radiance": out, "rt_reflection": rf.full(reflection)}
+        out, reflection_image = rf.background(), rf.image(4)
+
+        def work(cf):
+            local, reflection = reflect(cf)
+            cf.put(out, cf.s.emissive + local)
+            cf.put(reflection_image, reflection)
+
+        rf.for_chunks(work)
+        return {"radiance": out, "rt_reflection": reflection_image}

@@ -15,12 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt import kernels
+from rt import kernels, raygen, scratch
 from rt.tracer import Hits, Tracer
 
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 INV_PI = np.float32(1 / np.pi)
 KINDS = {"point": 0, "spot": 1, "directional": 2}
+ROW_WIDTH = 16  # emitter rows: p0, p1 - p0, p2 - p0, face normal, Le x area / pmf, double-sided
 
 
 @dataclass
@@ -145,29 +146,49 @@ class LightSet:
         self.cluster_radius = f32(radius, (-1,))
         self.cluster_power = f32(power, (-1,))
         self.cluster_tris = [t for t in tris]
-        self.kernel_args = (
-            kind, pos, d.astype(np.float32), rad, cos_out, cos_in, ang,
-            np.asarray(start, np.int64),
-            np.concatenate(tris) if tris else np.zeros(0, np.int64),
-            np.concatenate(keep) if keep else np.zeros(0, np.float64),
-            np.concatenate(alias).astype(np.int64) if alias else np.zeros(0, np.int64),
-            f32(np.concatenate(pmf) if pmf else [], (-1,)),
-            f32(np.concatenate(le) if le else [], (-1, 3)),
-            np.concatenate(double).astype(np.bool_) if double else np.zeros(0, np.bool_),
-            data.positions, data.indices, data.face_normals, data.tri_area, self.count_analytic)
+        self.lum = f32(rad @ LUMA, (-1,))
+        self.spot_scale = f32(1.0 / np.maximum(cos_in - cos_out, 1e-3), (-1,))
+        # one row per emitting triangle, clusters one after another: what sampling a point on it needs
+        c_tri = np.concatenate(tris) if tris else np.zeros(0, np.int64)
+        c_pmf = np.concatenate(pmf) if pmf else np.zeros(0)
+        i = data.indices[c_tri]
+        p0 = data.positions[i[:, 0]]
+        rows = np.zeros((c_tri.size, ROW_WIDTH), np.float32)
+        rows[:, 0:3], rows[:, 3:6], rows[:, 6:9] = p0, data.positions[i[:, 1]] - p0, data.positions[i[:, 2]] - p0
+        rows[:, 9:12] = data.face_normals[c_tri]
+        if c_tri.size:
+            rows[:, 12:15] = np.concatenate(le) * (data.tri_area[c_tri] / c_pmf)[:, None]  # Le x area / pmf
+            rows[:, 15] = np.concatenate(double)
+        self.analytic = (kind, pos, d.astype(np.float32), rad, cos_out, self.spot_scale, ang, self.lum)
+        self.emitters = (np.asarray(start, np.int64), rows,
+                         f32(np.concatenate(keep) if keep else [], (-1,)),
+                         np.concatenate(alias).astype(np.int32) if alias else np.zeros(0, np.int32))
+        # what picking a light needs, as structure-of-arrays (rt/raygen.py: _light_weights); point
+        # lights get a cone that is never cut (t = 1)
+        spot = kind == 1
+        col = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
+        self.guide = (*(col(pos[:, a]) for a in range(3)), *(col(d[:, a]) for a in range(3)), col(self.lum),
+                      col(np.where(spot, cos_out, -2.0)), col(np.where(spot, self.spot_scale, 1.0)),
+                      np.ascontiguousarray(kind == 2), *(col(self.cluster_centre[:, a]) for a in range(3)),
+                      col(self.cluster_radius), col(self.cluster_power))
         self.data = data
 
-    def rays(self, k: int, s: Surface, c: slice, keys, dim: int, origin, direction, tmax, e) -> None:
-        """Shadow rays to light k from the points in slice c (kernels specialised per light type)."""
-        a = self.kernel_args
+    def rays(self, k: int, s: Surface, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+        """Shadow rays to light k from points s, packed (rt/raygen.py); returns their count."""
         eps, far = self.data.eps, self.data.far
-        out = (origin[c], direction[c], tmax[c], e[c])
+        out = (origin, direction, tmax, e, idx)
         if k < self.count_analytic:
-            kernels.analytic_rays_chunk(k, s.p[c], s.n[c], s.ng[c], keys[c], dim, *a[:7], eps, far, *out)
-        else:
-            j = k - self.count_analytic
-            kernels.cluster_rays_chunk(a[7][j], a[7][j + 1], s.p[c], s.n[c], s.ng[c], keys[c], dim, *a[8:18], eps,
-                                       *out)
+            return raygen.analytic_shadow_rays(k, s.p, s.n, s.ng, keys, dim, self.analytic, eps, far, *out)
+        start, rows, keep, alias = self.emitters
+        j = k - self.count_analytic
+        return raygen.cluster_shadow_rays(start[j], start[j + 1], s.p, s.n, s.ng, keys, dim, rows, keep, alias, eps,
+                                          *out)
+
+    def one_rays(self, s: Surface, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+        """One shadow ray per point to a light picked by its estimated contribution, packed."""
+        weights = scratch.buffer("light.w", (self.count,))
+        return raygen.one_light_shadow_rays(s.p, s.n, s.ng, keys, dim, self.analytic, self.emitters, self.guide,
+                                            self.data.eps, self.data.far, weights, origin, direction, tmax, e, idx)
 
     @property
     def count(self) -> int:
@@ -179,78 +200,44 @@ class LightSet:
         return self.cluster_count > 0
 
 
-def _buffers(n: int):
-    return (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
-            np.empty((n, 3), np.float32))
-
-
-def _gather_light(tracer: Tracer, total, origin, direction, tmax, e, shadowed: bool, fill) -> None:
-    """total += e for rays that reach their light. fill(c) writes the rays of chunk c into the
-    buffers; with shadows, each tracing thread fills, compacts, traces and adds its own chunk."""
-    n = total.shape[0]
-    if not shadowed:
-        fill(slice(0, n))
-        total += e
-        return
-    live = {}
-
-    def make(c):
-        fill(c)
-        idx = live[c.start] = kernels.compact(e[c], origin[c], direction[c], tmax[c])  # only rays carrying light
-        m = idx.size
-        return origin[c][:m], direction[c][:m], tmax[c][:m].copy()
-
-    def use(c, blocked):
-        kernels.add_unblocked_chunk(total[c], e[c], live[c.start], blocked)
-
-    tracer.occlusion_pipeline(n, make, use)
+def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool) -> None:
+    """total += the light of the first m packed rays that reach their light."""
+    o, d, t, idx, e = rays
+    blocked = tracer.occluded(o[:m], d[:m], t[:m]) if (shadowed and m) else np.zeros(m, np.bool_)
+    raygen.add_unblocked(total, idx, e, blocked, m)
 
 
 def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
     """Irradiance x cos from every light: one shadow ray per light (a sample per emissive cluster)."""
     n = len(s)
     total = np.zeros((n, 3), np.float32)
-    origin, direction, tmax, e = _buffers(n)
+    rays = scratch.rays("light", n, with_light=True)
     for k in range(data.lights.count):
         dim = rng.reserve(3)
-        if n:
-            def fill(c, k=k, dim=dim):
-                data.lights.rays(k, s, c, rng.key, dim, origin, direction, tmax, e)
-
-            _gather_light(tracer, total, origin, direction, tmax, e, shadowed, fill)
+        o, d, t, idx, e = rays
+        _gather(tracer, total, rays, data.lights.rays(k, s, rng.key, dim, o, d, t, e, idx), shadowed)
     return total
 
 
 def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
     """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
     contribution there and divided by that probability: accumulates to direct_all."""
-    lights = data.lights
     n = len(s)
     dim = rng.reserve(4)
     total = np.zeros((n, 3), np.float32)
-    if lights.count == 0 or n == 0:
+    if data.lights.count == 0 or n == 0:
         return total
-    origin, direction, tmax, e = _buffers(n)
-
-    def fill(c):
-        kernels.one_light_rays_chunk(s.p[c], s.n[c], s.ng[c], rng.key[c], dim, lights.kernel_args,
-                                     lights.cluster_centre, lights.cluster_radius, lights.cluster_power, data.eps,
-                                     data.far, origin[c], direction[c], tmax[c], e[c])
-
-    _gather_light(tracer, total, origin, direction, tmax, e, shadowed, fill)
+    rays = scratch.rays("light", n, with_light=True)
+    o, d, t, idx, e = rays
+    _gather(tracer, total, rays, data.lights.one_rays(s, rng.key, dim, o, d, t, e, idx), shadowed)
     return total
 
 
-def hemisphere(data: SceneData, s: Surface, rng):
-    """Cosine-weighted rays about the shading normals: (origins, directions, above-surface mask)."""
-    n = len(s)
-    origin = np.empty((n, 3), np.float32)
-    direction = np.empty((n, 3), np.float32)
-    valid = np.empty(n, np.bool_)
-    dim = rng.reserve(2)
-    if n:
-        kernels.hemisphere_rays(s.p, s.n, s.ng, rng.key, dim, data.eps, origin, direction, valid)
-    return origin, direction, valid
+def cosine_directions(s: Surface, rng) -> np.ndarray:
+    """(N,3) cosine-weighted directions about the shading normals (may point below the true surface)."""
+    out = np.empty((len(s), 3), np.float32)
+    raygen.cosine_dirs(s.n, rng.key, rng.reserve(2), out)
+    return out
 
 
 def fresnel_schlick(s: Surface, view_dir: np.ndarray) -> np.ndarray:

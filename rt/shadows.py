@@ -20,11 +20,10 @@ class ShadowsOptions:
 register_group("shadows", ShadowsOptions)
 
 
-def direct_irradiance(rf, shadowed: bool = True) -> np.ndarray:
-    """Irradiance x cos at every covered pixel, per shadows.lights."""
-    s = rf.gb.surface
-    estimator = direct_all if rf.options.get("shadows.lights") == "all" else direct_one
-    return estimator(rf.data, rf.tracer, s, rf.rng(1), shadowed)
+def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
+    """Irradiance x cos at a chunk's pixels, per shadows.lights."""
+    estimator = direct_all if cf.options.get("shadows.lights") == "all" else direct_one
+    return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed)
 
 
 class ShadowsPass:
@@ -36,12 +35,18 @@ class ShadowsPass:
         pass
 
     def execute(self, rf) -> dict:
-        s = rf.gb.surface
-        e = direct_irradiance(rf)
-        out = rf.background()
-        zero = np.zeros_like(e)
-        if rf.options.get("shadows.greyscale"):
-            kernels.scatter_lit(out, rf.gb.index, zero, np.ones_like(e), INV_PI, e, zero)
-        else:
-            kernels.scatter_lit(out, rf.gb.index, s.emissive, s.albedo, INV_PI, e, zero)
-        return {"radiance": out, "rt_direct": rf.full(e)}
+        out, direct = rf.background(), rf.image()
+        grey = rf.options.get("shadows.greyscale")
+
+        def work(cf):
+            s = cf.s
+            e = direct_irradiance(cf)
+            zero = np.zeros_like(e)
+            if grey:
+                kernels.scatter_lit(out, cf.idx, zero, np.ones_like(e), INV_PI, e, zero)
+            else:
+                kernels.scatter_lit(out, cf.idx, s.emissive, s.albedo, INV_PI, e, zero)
+            cf.put(direct, e)
+
+        rf.for_chunks(work)
+        return {"radiance": out, "rt_direct": direct}

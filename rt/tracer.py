@@ -7,11 +7,14 @@ and traced on a thread pool.
 """
 from __future__ import annotations
 
+import copy
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+
+from rt.kernels import serial_kernels
 
 INF = np.float32(1e30)
 
@@ -40,12 +43,11 @@ class Tracer:
         """(N,) bool: something lies between origin and origin + tmax * dir."""
         raise NotImplementedError
 
-    def occlusion_pipeline(self, n: int, make, use) -> None:
-        """make(c) -> (origins, dirs, tmax) for the items in slice c; trace; use(c, blocked).
-        A backend may run chunks concurrently; this default runs one chunk."""
-        c = slice(0, n)
-        o, d, t = make(c)
-        use(c, self.occluded(o, d, t) if o.shape[0] else np.zeros(0, bool))
+    def map_chunks(self, n: int, work) -> None:
+        """work(c, tracer) for slices c covering range(n); a backend may run them concurrently,
+        each with a tracer to use from its own thread. This default runs one slice."""
+        with serial_kernels():
+            work(slice(0, n), self)
 
 
 def default_threads() -> int:
@@ -70,6 +72,7 @@ class EmbreeTracer(Tracer):
         self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_traced = 0
         self.recording: list | None = None  # set to [] to keep every ray batch (bench --perf replays them)
+        self._kind_suffix = ""  # "_chunk" on the serial views that chunk workers trace with
         # commit (build the BVH) now rather than inside the first frame
         self.scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), query="OCCLUDED")
 
@@ -101,7 +104,8 @@ class EmbreeTracer(Tracer):
             t[c], prim[c], u[c], v[c] = r["tfar"], r["primID"], r["u"], r["v"]
 
         if self.recording is not None:
-            self.recording.append(("intersect", o.copy(), d.copy(), None if dist is None else dist.copy()))
+            self.recording.append(("intersect" + self._kind_suffix, o.copy(), d.copy(),
+                                   None if dist is None else dist.copy()))
         if n:
             self._map(work, n)
         t[prim < 0] = INF
@@ -119,31 +123,34 @@ class EmbreeTracer(Tracer):
             out[c] = self.scene.run(o[c], d[c], dists=dist[c].copy(), query="OCCLUDED") >= 0
 
         if self.recording is not None:
-            self.recording.append(("occluded", o.copy(), d.copy(), dist.copy()))
+            self.recording.append(("occluded" + self._kind_suffix, o.copy(), d.copy(), dist.copy()))
         if n:
             self._map(work, n)
         self.rays_traced += n
         return out
 
-    def occlusion_pipeline(self, n: int, make, use) -> None:
-        """Per chunk of n items, on the tracing threads: make(c) -> (origins, dirs, tmax) of the
-        chunk's live rays, trace them, then use(c, blocked). Set-up, tracing and consumption
-        of different chunks overlap instead of running as whole-image phases."""
-        counts = []
+    def serial_view(self) -> EmbreeTracer:
+        """The same scene, traced on the calling thread (for code already running in a chunk)."""
+        view = copy.copy(self)
+        view.pool, view.threads, view.chunks_per_thread, view.rays_traced = None, 1, 1, 0
+        view._kind_suffix = "_chunk"
+        return view
 
-        def work(c: slice):
-            o, d, t = make(c)
-            blocked = np.zeros(0, bool)
-            if o.shape[0]:
-                if self.recording is not None:
-                    self.recording.append(("occluded_chunk", o.copy(), d.copy(), t.copy()))
-                blocked = self.scene.run(o, d, dists=t, query="OCCLUDED") >= 0
-            counts.append(o.shape[0])
-            use(c, blocked)
+    def map_chunks(self, n: int, work) -> None:
+        """work(c, tracer) for chunks c of range(n), on the tracing threads, each with a serial
+        view of this tracer: a chunk's sampling, tracing and shading run on one thread, and
+        chunks run side by side, with no whole-image phase between them."""
+        views = []
+
+        def run(c: slice):
+            view = self.serial_view()
+            with serial_kernels():
+                work(c, view)
+            views.append(view)
 
         if n:
-            self._map(work, n)
-        self.rays_traced += sum(counts)
+            self._map(run, n)
+        self.rays_traced += sum(v.rays_traced for v in views)
 
     def replay(self, batches: list) -> float:
         """Trace recorded batches again, embreex alone with the same chunking and threads;
@@ -151,11 +158,16 @@ class EmbreeTracer(Tracer):
         import time
 
         t0 = time.perf_counter()
-        chunked = [b for b in batches if b[0] == "occluded_chunk"]  # traced one batch per task, as recorded
+        chunked = [b for b in batches if b[0].endswith("_chunk")]  # traced one batch per task, as recorded
+
+        def run(b):
+            if b[0].startswith("occluded"):
+                return self.scene.run(b[1], b[2], dists=b[3].copy(), query="OCCLUDED")
+            return self.scene.run(b[1], b[2], dists=None if b[3] is None else b[3].copy(), output=1)
+
         if chunked:
-            run = lambda b: self.scene.run(b[1], b[2], dists=b[3].copy(), query="OCCLUDED")  # noqa: E731
             list(self.pool.map(run, chunked)) if self.pool is not None else [run(b) for b in chunked]
-        for kind, o, d, dist in (b for b in batches if b[0] != "occluded_chunk"):
+        for kind, o, d, dist in (b for b in batches if not b[0].endswith("_chunk")):
             n = o.shape[0]
             if kind == "intersect":
                 self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=None if t is None
