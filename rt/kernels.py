@@ -20,7 +20,7 @@ M1 = np.uint64(0xBF58476D1CE4E5B9)
 M2 = np.uint64(0x94D049BB133111EB)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mix64(x):
     """splitmix64 finaliser."""
     x = (x ^ (x >> np.uint64(30))) * M1
@@ -28,28 +28,28 @@ def mix64(x):
     return x ^ (x >> np.uint64(31))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def uniform(key, dim):
     """The uniform number [0,1) of one pixel's key in one dimension."""
     h = mix64(key + (np.uint64(dim) + np.uint64(1)) * GOLDEN)
     return np.float32(h >> np.uint64(40)) * np.float32(1.0 / 16777216.0)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True)
 def pixel_keys(pixels, base, out):
     """Each pixel's generator key: a hash of its id and the frame's base key."""
     for i in prange(pixels.shape[0]):
         out[i] = mix64(np.uint64(pixels[i]) * GOLDEN + base)
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def uniforms(keys, dim0, k, out):
     for i in prange(keys.shape[0]):
         for j in range(k):
             out[i, j] = uniform(keys[i], dim0 + j)
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def shade_hits(prim, bu, bv, t, O, D, positions, normals, uvs, indices, material_ids, face_normals, base_color,
                roughness, metallic, emissive, tex_offset, tex_w, tex_h, tex_data,
                P, N, NG, albedo, rough, metal, emis):
@@ -114,7 +114,7 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return keep, alias
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def covered_pixels(face, height, width):
     """Top-row-first pixel ids whose G-buffer texel (bottom-row-first, as GL reads) is covered."""
     idx = np.empty(height * width, np.int64)
@@ -128,7 +128,7 @@ def covered_pixels(face, height, width):
     return idx[:m]
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def unpack_gbuffer(pos, nrm, alb, emi, face, idx, eye, right, up, fwd, tan_half, aspect,
                    P, N, NG, albedo, rough, metal, emis, view_dir, depth):
     """GL's G-buffer textures (bottom row first) -> per-covered-pixel surface arrays and
@@ -168,7 +168,7 @@ def unpack_gbuffer(pos, nrm, alb, emi, face, idx, eye, right, up, fwd, tan_half,
             view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = vx / ln, vy / ln, vz / ln
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True)
 def pack_rgba_flipped(image, height, width, channels, out):
     """(H*W, C) top-row-first -> (H, W, 4) bottom-row-first for a GL texture upload."""
     for p in prange(height * width):
@@ -183,7 +183,7 @@ def pack_rgba_flipped(image, height, width, channels, out):
                 out[r, x, a] = 1.0 if a == 3 else 0.0
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True)
 def scatter_rows(out, idx, values):
     """out[idx[j]] = values[j] for (M,C) values."""
     for j in prange(idx.shape[0]):
@@ -191,7 +191,7 @@ def scatter_rows(out, idx, values):
             out[idx[j], a] = values[j, a]
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def scatter_lit(out, idx, emissive, albedo, scale, light, extra):
     """out[idx[j]] = emissive + albedo * (scale * light + extra): diffuse shading into an image."""
     for j in prange(idx.shape[0]):
@@ -200,7 +200,7 @@ def scatter_lit(out, idx, emissive, albedo, scale, light, extra):
             out[i, a] = emissive[j, a] + albedo[j, a] * (scale * light[j, a] + extra[j, a])
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def background_fill(out, view_dir, covered, kind, color, horizon, zenith, ground):
     """Uncovered pixels get the environment's radiance (kind 0 black, 1 constant colour, 2 the
     analytic sky of scenes/model.py: sky_radiance, times color[0]); covered ones 0."""
@@ -251,7 +251,7 @@ class _Dual:
         twin = types.FunctionType(f.__code__, f.__globals__, f.__name__ + "_serial", f.__defaults__, f.__closure__)
         twin.__qualname__ = f.__qualname__ + "_serial"  # its own cache entry
         self.parallel = kernel
-        self.serial = njit(cache=True, nogil=True, fastmath=True)(twin)
+        self.serial = njit(cache=True, nogil=True, fastmath=True, error_model="numpy")(twin)
         self.__doc__ = f.__doc__
 
     def __call__(self, *args):

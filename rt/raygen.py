@@ -25,7 +25,7 @@ S3, S5, S7, S9, S11 = F(-1 / 6), F(1 / 120), F(-1 / 5040), F(1 / 362880), F(-1 /
 TINY = F(1e-12)
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def sin_turns(u):
     """sin(2 pi u) for u >= 0 (float32, branch-free)."""
     x = u - F(int(u + HALF))  # [-1/2, 1/2] turns
@@ -36,18 +36,18 @@ def sin_turns(u):
     return t * (ONE + t2 * (S3 + t2 * (S5 + t2 * (S7 + t2 * (S9 + t2 * S11)))))
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def cos_turns(u):
     return sin_turns(u + F(0.25))
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def offset(eps, px, py, pz):
     """How far ray origins are nudged off a surface (embreex has no tnear)."""
     return eps * (ONE + max(abs(px), abs(py), abs(pz)) * F(1e-3))
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def put(m, i, P, NG, s, dx, dy, dz, t, origin, direction, tmax, idx):
     origin[m, 0] = P[i, 0] + NG[i, 0] * s
     origin[m, 1] = P[i, 1] + NG[i, 1] * s
@@ -57,7 +57,7 @@ def put(m, i, P, NG, s, dx, dy, dz, t, origin, direction, tmax, idx):
     idx[m] = i
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def about(nx, ny, nz, x, y, z):
     """(x, y, z) in the orthonormal basis about n (Duff et al. 2017)."""
     sign = ONE if nz >= ZERO else -ONE
@@ -68,7 +68,7 @@ def about(nx, ny, nz, x, y, z):
             -sign * nx * x - ny * y + nz * z)
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def hemisphere_live(P, N, NG, keys, dim, eps, tmax_value, origin, direction, tmax, idx):
     """Cosine-weighted rays about N; packs those above the true surface (NG). Returns the count."""
     m = 0
@@ -82,7 +82,7 @@ def hemisphere_live(P, N, NG, keys, dim, eps, tmax_value, origin, direction, tma
     return m
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def cosine_dirs(N, keys, dim, out):
     """Cosine-weighted directions about N (not packed: some may point below the true surface)."""
     for i in range(N.shape[0]):
@@ -92,7 +92,7 @@ def cosine_dirs(N, keys, dim, out):
                                                 np.sqrt(max(ZERO, ONE - u0)))
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _keep_light(m, i, P, N, NG, eps, dx, dy, dz, dist, ex, ey, ez, origin, direction, tmax, e, idx):
     """Write a shadow ray with its unshadowed irradiance x cos; returns 1 if it carries light."""
     cs = N[i, 0] * dx + N[i, 1] * dy + N[i, 2] * dz
@@ -105,7 +105,7 @@ def _keep_light(m, i, P, N, NG, eps, dx, dy, dz, dist, ex, ey, ez, origin, direc
     return (ex > ZERO) | (ey > ZERO) | (ez > ZERO)
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _sun(k, u0, u1, ldir, ang):
     """A direction towards sun k, optionally a disc of angular radius ang."""
     ax, ay, az = -ldir[k, 0], -ldir[k, 1], -ldir[k, 2]
@@ -116,7 +116,7 @@ def _sun(k, u0, u1, ldir, ang):
     return ax, ay, az
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _towards(k, px, py, pz, spot, lpos, ldir, cos_out, spot_scale):
     """Point or spot light k seen from p: (dir, dist, attenuation: 1/d^2 x the spot's cone)."""
     vx, vy, vz = lpos[k, 0] - px, lpos[k, 1] - py, lpos[k, 2] - pz
@@ -130,7 +130,7 @@ def _towards(k, px, py, pz, spot, lpos, ldir, cos_out, spot_scale):
     return dx, dy, dz, d2 * inv, att
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def analytic_shadow_rays(k, P, N, NG, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx):
     """Shadow rays towards analytic light k from every point, packed; returns the count.
     One loop per light type, so each stays short and branch-free."""
@@ -150,7 +150,7 @@ def analytic_shadow_rays(k, P, N, NG, keys, dim, analytic, eps, far, origin, dir
     return m
 
 
-@njit(cache=True, inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _emitter(lo, hi, px, py, pz, u0, u1, u2, rows, keep, alias):
     """A point on one of the triangles rows[lo:hi] of a cluster (alias method: O(1)), as
     (dir, dist short of the emitter, Le x cos_light / d^2 / pdf_area)."""
@@ -172,7 +172,7 @@ def _emitter(lo, hi, px, py, pz, u0, u1, u2, rows, keep, alias):
     return dx, dy, dz, d2 * inv * F(1.0 - 1e-4), rows[j, 12] * g, rows[j, 13] * g, rows[j, 14] * g
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def cluster_shadow_rays(lo, hi, P, N, NG, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx):
     """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point, packed."""
     m = 0
@@ -184,80 +184,98 @@ def cluster_shadow_rays(lo, hi, P, N, NG, keys, dim, rows, keep, alias, eps, ori
     return m
 
 
-@njit(cache=True, inline="always", fastmath=True)
-def _light_weights(px, py, pz, nx, ny, nz, guide, w):
-    """Every light's estimated contribution at p into w; returns their sum. Branch-free loops
-    over structure-of-arrays light data (LightSet.guide), so they vectorise:
-    analytic lights exactly (up to the albedo); emissive clusters by a bound from their
-    bounding sphere, never zero where some part could contribute (the cosine bound grows
-    with the cluster's angular size)."""
+BLOCK = 64  # points whose light weights are computed together, one light at a time (vectorises)
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _light_weights(soa, nb, guide, w):
+    """w[k, i]: light k's estimated contribution at block point i (soa: px, py, pz, nx, ny, nz
+    rows). Analytic lights exactly (up to the albedo); emissive clusters by a bound from their
+    bounding sphere, never zero where some part could contribute (the cosine bound grows with
+    the cluster's angular size). One branch-free loop over the block per light."""
     lx, ly, lz, sx, sy, sz, lum, cos_out, spot_scale, sun, cx, cy, cz, radius, power = guide
     na = lx.shape[0]
-    total = ZERO
+    px, py, pz, nx, ny, nz = soa[0], soa[1], soa[2], soa[3], soa[4], soa[5]
     for k in range(na):
-        vx, vy, vz = lx[k] - px, ly[k] - py, lz[k] - pz
-        d2 = max(vx * vx + vy * vy + vz * vz, TINY)
-        inv = ONE / np.sqrt(d2)
-        t = min(max((-(vx * sx[k] + vy * sy[k] + vz * sz[k]) * inv - cos_out[k]) * spot_scale[k], ZERO), ONE)
-        local = max((nx * vx + ny * vy + nz * vz) * inv, ZERO) * inv * inv * t * t  # point (t = 1) or spot
-        far = max(-(nx * sx[k] + ny * sy[k] + nz * sz[k]), ZERO) + F(1e-6)  # sun
-        wk = lum[k] * (far if sun[k] else local)
-        w[k] = wk
-        total += wk
+        qx, qy, qz, dx, dy, dz = lx[k], ly[k], lz[k], sx[k], sy[k], sz[k]
+        co, sc, lk, is_sun = cos_out[k], spot_scale[k], lum[k], sun[k]
+        row = w[k]
+        for i in range(nb):
+            vx, vy, vz = qx - px[i], qy - py[i], qz - pz[i]
+            d2 = max(vx * vx + vy * vy + vz * vz, TINY)
+            inv = ONE / np.sqrt(d2)
+            t = min(max((-(vx * dx + vy * dy + vz * dz) * inv - co) * sc, ZERO), ONE)
+            local = max((nx[i] * vx + ny[i] * vy + nz[i] * vz) * inv, ZERO) * inv * inv * t * t  # point, spot
+            far = max(-(nx[i] * dx + ny[i] * dy + nz[i] * dz), ZERO) + F(1e-6)  # sun
+            row[i] = lk * (far if is_sun else local)
     for j in range(cx.shape[0]):
-        vx, vy, vz = cx[j] - px, cy[j] - py, cz[j] - pz
-        d2 = max(vx * vx + vy * vy + vz * vz, TINY)
-        inv = ONE / np.sqrt(d2)
-        r = radius[j]
-        sin_r = min(r * inv, ONE)
-        cb = min(max((nx * vx + ny * vy + nz * vz) * inv + sin_r, ZERO), ONE)
-        cb = cb if sin_r < ONE else ONE
-        wk = power[j] * max(cb, F(0.02)) / max(d2 - r * r, r * r * F(0.25) + TINY)
-        w[na + j] = wk
-        total += wk
-    return total
+        qx, qy, qz, r, pj = cx[j], cy[j], cz[j], radius[j], power[j]
+        row = w[na + j]
+        for i in range(nb):
+            vx, vy, vz = qx - px[i], qy - py[i], qz - pz[i]
+            d2 = max(vx * vx + vy * vy + vz * vz, TINY)
+            inv = ONE / np.sqrt(d2)
+            sin_r = min(r * inv, ONE)
+            cb = min(max((nx[i] * vx + ny[i] * vy + nz[i] * vz) * inv + sin_r, ZERO), ONE)
+            cb = cb if sin_r < ONE else ONE
+            row[i] = pj * max(cb, F(0.02)) / max(d2 - r * r, r * r * F(0.25) + TINY)
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def one_light_shadow_rays(P, N, NG, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
                           e, idx):
     """One light per point, picked with probability ~ its estimated contribution there, sampled
-    and divided by that probability (unbiased: accumulates to all lights); packed."""
+    and divided by that probability (unbiased: accumulates to all lights); packed.
+    weights: (lights + 7, BLOCK) scratch."""
     kind, lpos, ldir, lrad, cos_out, spot_scale, ang, lum = analytic
     start, rows, keep, alias = emitters
     count_analytic = kind.shape[0]
-    n_lights = weights.shape[0]
+    n_lights = weights.shape[0] - 7
+    soa, tot, w = weights[n_lights:n_lights + 6], weights[n_lights + 6], weights[:n_lights]
     m = 0
-    for i in range(P.shape[0]):
-        px, py, pz = P[i, 0], P[i, 1], P[i, 2]
-        total = _light_weights(px, py, pz, N[i, 0], N[i, 1], N[i, 2], guide, weights)
-        key = keys[i]
-        target = uniform(key, dim) * total
-        k = 0
-        acc = weights[0]
-        while k < n_lights - 1 and acc <= target:
-            k += 1
-            acc += weights[k]
-        prob = weights[k] / total if total > ZERO else ZERO
-        inv = ONE / prob if prob > ZERO else ZERO
-        u1, u2, u3 = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
-        if k < count_analytic:
-            if kind[k] == 2:
-                dx, dy, dz = _sun(k, u1, u2, ldir, ang)
-                dist, att = far, ONE
+    for b0 in range(0, P.shape[0], BLOCK):
+        nb = min(BLOCK, P.shape[0] - b0)
+        for i in range(nb):
+            for a in range(3):
+                soa[a, i] = P[b0 + i, a]
+                soa[3 + a, i] = N[b0 + i, a]
+            tot[i] = ZERO
+        _light_weights(soa, nb, guide, w)
+        for k in range(n_lights):
+            for i in range(nb):
+                tot[i] += w[k, i]
+        for b in range(nb):
+            i = b0 + b
+            px, py, pz = P[i, 0], P[i, 1], P[i, 2]
+            total = tot[b]
+            key = keys[i]
+            target = uniform(key, dim) * total
+            k = 0
+            acc = w[0, b]
+            while k < n_lights - 1 and acc <= target:
+                k += 1
+                acc += w[k, b]
+            prob = w[k, b] / total if total > ZERO else ZERO
+            inv = ONE / prob if prob > ZERO else ZERO
+            u1, u2, u3 = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
+            if k < count_analytic:
+                if kind[k] == 2:
+                    dx, dy, dz = _sun(k, u1, u2, ldir, ang)
+                    dist, att = far, ONE
+                else:
+                    dx, dy, dz, dist, att = _towards(k, px, py, pz, kind[k] == 1, lpos, ldir, cos_out, spot_scale)
+                att *= inv
+                ex, ey, ez = lrad[k, 0] * att, lrad[k, 1] * att, lrad[k, 2] * att
             else:
-                dx, dy, dz, dist, att = _towards(k, px, py, pz, kind[k] == 1, lpos, ldir, cos_out, spot_scale)
-            att *= inv
-            ex, ey, ez = lrad[k, 0] * att, lrad[k, 1] * att, lrad[k, 2] * att
-        else:
-            c = k - count_analytic
-            dx, dy, dz, dist, ex, ey, ez = _emitter(start[c], start[c + 1], px, py, pz, u1, u2, u3, rows, keep, alias)
-            ex, ey, ez = ex * inv, ey * inv, ez * inv
-        m += _keep_light(m, i, P, N, NG, eps, dx, dy, dz, dist, ex, ey, ez, origin, direction, tmax, e, idx)
+                c = k - count_analytic
+                dx, dy, dz, dist, ex, ey, ez = _emitter(start[c], start[c + 1], px, py, pz, u1, u2, u3, rows, keep,
+                                                        alias)
+                ex, ey, ez = ex * inv, ey * inv, ez * inv
+            m += _keep_light(m, i, P, N, NG, eps, dx, dy, dz, dist, ex, ey, ez, origin, direction, tmax, e, idx)
     return m
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, error_model="numpy", nogil=True)
 def add_unblocked(total, idx, e, blocked, m):
     """total[idx[j]] += e[j] for the first m packed rays that were not blocked."""
     for j in range(m):
@@ -268,7 +286,7 @@ def add_unblocked(total, idx, e, blocked, m):
             total[i, 2] += e[j, 2]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, error_model="numpy", nogil=True)
 def add_open(count, idx, blocked, m):
     for j in range(m):
         if not blocked[j]:
