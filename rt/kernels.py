@@ -50,12 +50,14 @@ def uniforms(keys, dim0, k, out):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def shade_hits(prim, bu, bv, t, O, D, positions, normals, uvs, indices, material_ids, face_normals, base_color,
-               roughness, metallic, emissive, tex_offset, tex_w, tex_h, tex_data,
-               P, N, NG, albedo, rough, metal, emis):
-    """Surface data at ray hits: position, normals facing the ray, textured albedo, material."""
+def shade_hits(prim, bu, bv, t, O, D, corners, face_normals, base_color, roughness, metallic, emissive, tex_offset,
+               tex_w, tex_h, tex_data, P, N, NG, albedo, rough, metal, emis):
+    """Surface data at ray hits: position, normals facing the ray, textured albedo, material.
+    corners: per triangle its 3 vertex normals, 3 uvs and material (SceneData.corners), so an
+    incoherent hit touches one cache line of mesh data instead of one per vertex array."""
     for i in prange(prim.shape[0]):
         tri = prim[i]
+        c = corners[tri]
         w1, w2 = bu[i], bv[i]
         w0 = 1.0 - w1 - w2
         for a in range(3):
@@ -64,10 +66,9 @@ def shade_hits(prim, bu, bv, t, O, D, positions, normals, uvs, indices, material
         if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
             gx, gy, gz = -gx, -gy, -gz
         NG[i, 0], NG[i, 1], NG[i, 2] = gx, gy, gz
-        i0, i1, i2 = indices[tri, 0], indices[tri, 1], indices[tri, 2]
-        nx = w0 * normals[i0, 0] + w1 * normals[i1, 0] + w2 * normals[i2, 0]
-        ny = w0 * normals[i0, 1] + w1 * normals[i1, 1] + w2 * normals[i2, 1]
-        nz = w0 * normals[i0, 2] + w1 * normals[i1, 2] + w2 * normals[i2, 2]
+        nx = w0 * c[0] + w1 * c[3] + w2 * c[6]
+        ny = w0 * c[1] + w1 * c[4] + w2 * c[7]
+        nz = w0 * c[2] + w1 * c[5] + w2 * c[8]
         ln = math.sqrt(nx * nx + ny * ny + nz * nz)
         if ln < 1e-20:
             nx, ny, nz, ln = gx, gy, gz, 1.0
@@ -75,11 +76,11 @@ def shade_hits(prim, bu, bv, t, O, D, positions, normals, uvs, indices, material
         if nx * gx + ny * gy + nz * gz < 0:
             nx, ny, nz = -nx, -ny, -nz
         N[i, 0], N[i, 1], N[i, 2] = nx, ny, nz
-        m = material_ids[tri]
+        m = int(c[15])
         off = tex_offset[m]
         if off >= 0:
-            u = w0 * uvs[i0, 0] + w1 * uvs[i1, 0] + w2 * uvs[i2, 0]
-            v = w0 * uvs[i0, 1] + w1 * uvs[i1, 1] + w2 * uvs[i2, 1]
+            u = w0 * c[9] + w1 * c[11] + w2 * c[13]
+            v = w0 * c[10] + w1 * c[12] + w2 * c[14]
             tw, th = tex_w[m], tex_h[m]
             x = u * tw - 0.5
             y = v * th - 0.5

@@ -59,6 +59,11 @@ class SceneData:
         length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
         self.tri_area = f32(0.5 * length)
         self.face_normals = f32(cross / np.maximum(length, 1e-30)[:, None])
+        # per triangle: its 3 vertex normals, 3 uvs and material, one 64-byte row (kernels.shade_hits)
+        self.corners = np.empty((len(self.indices), 16), np.float32)
+        self.corners[:, 0:9] = self.normals[self.indices].reshape(-1, 9)
+        self.corners[:, 9:15] = self.uvs[self.indices].reshape(-1, 6)
+        self.corners[:, 15] = self.material_ids
         mats = scene.materials
         self.base_color = f32([m.base_color[:3] for m in mats])
         self.roughness = f32([m.roughness for m in mats])
@@ -89,10 +94,10 @@ class SceneData:
                       np.empty((n, 3), np.float32))
         if n:
             kernels.shade_hits(hits.prim, hits.u, hits.v, hits.t, np.ascontiguousarray(origins, np.float32),
-                               np.ascontiguousarray(dirs, np.float32), self.positions, self.normals, self.uvs,
-                               self.indices, self.material_ids, self.face_normals, self.base_color, self.roughness,
-                               self.metallic, self.emissive, self.tex_offset, self.tex_w, self.tex_h, self.tex_data,
-                               out.p, out.n, out.ng, out.albedo, out.roughness, out.metallic, out.emissive)
+                               np.ascontiguousarray(dirs, np.float32), self.corners, self.face_normals,
+                               self.base_color, self.roughness, self.metallic, self.emissive, self.tex_offset,
+                               self.tex_w, self.tex_h, self.tex_data, out.p, out.n, out.ng, out.albedo,
+                               out.roughness, out.metallic, out.emissive)
         return out
 
     def offset(self, s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
