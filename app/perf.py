@@ -100,8 +100,8 @@ def run_perf(args) -> int:
             opts.set("gbuffer", "raster")
             doc["gbuffer"].append({"scene": scene.name, "size": list(size), "raster_gpu_ms": raster_ms,
                                    "rt_ms": rt_ms})
-        # thread scaling at the first size
-        size = sizes[0]
+        # thread scaling at the largest size (small frames are dominated by fixed costs)
+        size = max(sizes, key=lambda s: s[0] * s[1])
         base = {}
         for t in threads:
             set_threads(renderer, t)
