@@ -90,6 +90,7 @@ class Renderer:
         # the viewer sets this: a deterministic (raster) frame whose inputs did not change is
         # shown again instead of re-rendered, which keeps the UI responsive on software GL
         self.reuse_static_frames = False
+        self._rt_buffers: dict = {}  # the ray-traced passes' full-image outputs, reused (rt/frame.py)
 
     def set_scene(self, scene) -> None:
         if self.gpu is not None:
@@ -183,7 +184,7 @@ class Renderer:
         else:
             with self.profiler.cpu("gbuffer_rt"):
                 gb = trace_primary(rt.data, rt.tracer, frame.camera, frame.width, frame.height)
-        rf = RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index)
+        rf = RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index, self._rt_buffers)
         if job.pass_name in CHANNEL_VIEWS:
             job.result = {"radiance": rt_channel(rf, frame, job.pass_name)}
         elif job.pass_name == "hybrid":

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt import kernels, raygen, scratch
+from rt import gather, raygen, scratch
 
 
 @dataclass
@@ -21,19 +21,21 @@ register_group("ao", AOOptions)
 
 
 def ambient_occlusion(cf) -> np.ndarray:
-    """Fraction of a chunk's occlusion rays that escape, per pixel."""
+    """How many of a chunk's ao.rays_per_pixel occlusion rays escape, per pixel (a scratch
+    buffer: valid until this thread's next call)."""
     s = cf.s
     rays = cf.options.get("ao.rays_per_pixel")
     radius = np.float32(cf.options.get("ao.radius"))
     rng = cf.rng(2)
     n = len(s)
-    open_count = np.zeros(n, np.float32)
+    open_count = scratch.buffer("ao.count", (n,))
+    open_count.fill(0)
     o, d, t, idx = scratch.rays("ao", n)
     for _ in range(rays):
         m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, radius, o, d, t, idx)
         blocked = cf.tracer.occluded(o[:m], d[:m], t[:m]) if m else np.zeros(0, np.bool_)
         raygen.add_open(open_count, idx, blocked, m)  # rays below the true surface count as occluded
-    return open_count / np.float32(rays)
+    return open_count  # of ao.rays_per_pixel
 
 
 class AOPass:
@@ -46,15 +48,10 @@ class AOPass:
 
     def execute(self, rf) -> dict:
         out, ao_image = rf.background(), rf.image(1, fill=1.0)
-        grey = rf.options.get("ao.greyscale")
+        grey, rays = rf.options.get("ao.greyscale"), rf.options.get("ao.rays_per_pixel")
 
         def work(cf):
-            ao = ambient_occlusion(cf)
-            s = cf.s
-            albedo = np.ones_like(s.albedo) if grey else s.albedo
-            zero = np.zeros_like(s.albedo)
-            kernels.scatter_lit(out, cf.idx, zero, albedo, np.float32(1.0), np.repeat(ao[:, None], 3, 1), zero)
-            cf.put(ao_image, ao)
+            gather.write_ao(out, ao_image, cf.idx, ambient_occlusion(cf), rays, cf.s.albedo, grey)
 
         rf.for_chunks(work)
         return {"radiance": out, "rt_ao": ao_image}

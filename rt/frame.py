@@ -20,6 +20,9 @@ class RtFrame:
     options: object  # app.options.Options
     seed: int = 0
     index: int = 0  # frame index since the last reset
+    # full-image outputs kept from frame to frame (the renderer's): fresh 10 MB arrays cost page
+    # faults worth a few ms each, every frame. A frame's outputs are valid until the next frame.
+    buffers: dict | None = None
 
     def rng(self, stream: int) -> PixelRng:
         """Per-pixel generator for the covered pixels, seeded from (seed, frame, pixel, stream)."""
@@ -31,7 +34,7 @@ class RtFrame:
         from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
 
         env = self.environment
-        out = np.empty((self.gb.n, 3), np.float32)
+        out = self._buffer("background", 3)
         kind = {"black": 0, "constant": 1, "sky": 2}[env.kind]
         color = np.asarray(env.color if kind == 1 else (env.strength, 0, 0), np.float32)
         background_fill(out, self.gb.view_dir, self.gb.covered, kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND)
@@ -41,9 +44,21 @@ class RtFrame:
         """work(ChunkFrame) for runs of covered pixels, on the tracer's threads."""
         self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)))
 
-    def image(self, channels: int = 3, fill=0.0) -> np.ndarray:
-        """An (N, channels) full-image array for chunks to write their pixels into."""
-        return np.full((self.gb.n, channels), fill, np.float32)
+    def image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
+        """An (N, channels) full-image array filled with `fill`, for chunks to write their pixels
+        into; name: which of the frame's outputs it is (one buffer per name and size)."""
+        out = self._buffer(f"image{channels}{name}", channels)
+        out.fill(fill)
+        return out
+
+    def _buffer(self, name: str, channels: int) -> np.ndarray:
+        shape = (self.gb.n, channels)
+        if self.buffers is None:
+            return np.empty(shape, np.float32)
+        buf = self.buffers.get(name)
+        if buf is None or buf.shape != shape:
+            buf = self.buffers[name] = np.empty(shape, np.float32)
+        return buf
 
     def full(self, values: np.ndarray, fill=0.0) -> np.ndarray:
         """Scatter per-covered-pixel values into a full image array."""

@@ -11,8 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt import kernels, raygen, scratch
-from rt.shading import INV_PI, direct_one, trace_from
+from rt import gather, raygen, scratch
+from rt.shading import direct_one, empty_surface
+from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
 
 
 @dataclass
@@ -25,21 +26,34 @@ class GIOptions:
 register_group("gi", GIOptions)
 
 
+def _env(environment):
+    """The environment as kernel arguments (kinds as kernels.background_fill)."""
+    kind = {"black": 0, "constant": 1, "sky": 2}[environment.kind]
+    color = np.asarray(environment.color if kind == 1 else (environment.strength, 0, 0), np.float32)
+    return kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND
+
+
 def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0) -> np.ndarray:
-    """One-sample estimate of the radiance arriving along a cosine-sampled direction."""
-    out = np.zeros((len(s), 3), np.float32)
-    o, d, _, idx = scratch.rays(f"gi{depth}", len(s))
-    m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, idx)
-    above = idx[:m]  # rays below the true surface carry nothing
-    hit, sh, miss = trace_from(cf.data, cf.tracer, None, d[:m], o[:m])
-    if miss.size and cf.environment.kind != "black":
-        out[above[miss]] = cf.environment.radiance(d[miss])
-    # every step runs even for no hits, so each pixel draws the same numbers however it is chunked
-    hrng = rng.subset(above[hit])
-    radiance = sh.albedo * INV_PI * direct_one(cf.data, cf.tracer, sh, hrng, shadowed)
-    if bounces > 1:
-        radiance += sh.albedo * incoming_indirect(cf, sh, hrng, bounces - 1, shadowed, depth + 1)
-    out[above[hit]] = radiance
+    """One-sample estimate of the radiance arriving along a cosine-sampled direction, per point
+    of s (a scratch buffer of this depth: valid until this thread's next call at this depth).
+    Every step runs even when no ray hits, so each pixel draws the same numbers however the
+    frame is chunked."""
+    n, name = len(s), f"gi{depth}"
+    out = scratch.buffer(name + ".out", (n, 3))
+    out.fill(0)
+    o, d, _, owner = scratch.rays(name, n)
+    m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
+    hits = cf.tracer.intersect(o[:m], d[:m])  # rays below the true surface carry nothing
+    sel = scratch.buffer(name + ".sel", (m,), np.int64)
+    k = gather.split_hits(hits.prim, m, d, owner, out, *_env(cf.environment), sel)
+    sel = sel[:k]
+    sh = cf.data.surface(hits, d, o, sel=sel, out=empty_surface(k, name + ".hit"))
+    keys = scratch.buffer(name + ".keys", (k,), np.uint64)
+    gather.gather_keys(rng.key, owner, sel, k, keys)
+    hrng = rng.with_keys(keys)
+    direct = direct_one(cf.data, cf.tracer, sh, hrng, shadowed, out=scratch.buffer(name + ".direct", (k, 3)))
+    inner = incoming_indirect(cf, sh, hrng, bounces - 1, shadowed, depth + 1) if bounces > 1 else None
+    gather.add_bounce(out, owner, sel, k, sh.albedo, direct, inner)
     return out
 
 
@@ -51,7 +65,7 @@ def indirect_light(cf, s, rng) -> np.ndarray:
     total = np.zeros((len(s), 3), np.float32)
     for _ in range(rays):
         total += incoming_indirect(cf, s, rng, bounces, shadowed)
-    return total / rays
+    return total / np.float32(rays)
 
 
 class GIPass:
@@ -68,9 +82,9 @@ class GIPass:
 
         def work(cf):
             s, rng = cf.s, cf.rng(4)
-            direct = direct_one(cf.data, cf.tracer, s, rng, shadowed)
+            direct = direct_one(cf.data, cf.tracer, s, rng, shadowed, out=scratch.buffer("gi.direct", (len(s), 3)))
             indirect = indirect_light(cf, s, rng)
-            kernels.scatter_lit(out, cf.idx, s.emissive, s.albedo, INV_PI, direct, indirect)
+            gather.write_lit(out, cf.idx, s.emissive, s.albedo, direct, indirect, False)
             cf.put(indirect_image, indirect)
 
         rf.for_chunks(work)

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from app.options import opt, register_group
 from rt.ao import ambient_occlusion
 from rt.gi import indirect_light
@@ -32,19 +34,19 @@ def hybrid_components(rf) -> dict:
     ao = opts.get("hybrid.ao") and not gi
     out = {}
     if shadows:
-        out["rt_direct"] = rf.image()
+        out["rt_direct"] = rf.image(name="direct")
     if ao:
         out["rt_ao"] = rf.image(1, fill=1.0)
     if reflections:
         out["rt_reflection"] = rf.image(4)
     if gi:
-        out["rt_indirect"] = rf.image()
+        out["rt_indirect"] = rf.image(name="indirect")
 
     def work(cf):
         if shadows:
             cf.put(out["rt_direct"], direct_irradiance(cf))
         if ao:
-            cf.put(out["rt_ao"], ambient_occlusion(cf))
+            cf.put(out["rt_ao"], ambient_occlusion(cf) / np.float32(opts.get("ao.rays_per_pixel")))
         if reflections:
             cf.put(out["rt_reflection"], reflect(cf)[1])
         if gi:

@@ -50,22 +50,23 @@ def uniforms(keys, dim0, k, out):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def shade_hits(prim, bu, bv, t, O, D, corners, face_normals, base_color, roughness, metallic, emissive, tex_offset,
-               tex_w, tex_h, tex_data, P, N, NG, albedo, rough, metal, emis):
-    """Surface data at ray hits: position, normals facing the ray, textured albedo, material.
-    corners: per triangle its 3 vertex normals, 3 uvs and material (SceneData.corners), so an
-    incoherent hit touches one cache line of mesh data instead of one per vertex array."""
-    for i in prange(prim.shape[0]):
+def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, roughness, metallic, emissive,
+               tex_offset, tex_w, tex_h, tex_data, P, N, NG, albedo, rough, metal, emis):
+    """Surface data at the hits of rays sel[k] (written at k): position, normals facing the ray,
+    textured albedo, material. corners: per triangle its 3 vertex normals, 3 uvs and material
+    (SceneData.corners), so an incoherent hit reads one row of mesh data, not one per array."""
+    for k in prange(sel.shape[0]):
+        i = sel[k]
         tri = prim[i]
         c = corners[tri]
         w1, w2 = bu[i], bv[i]
         w0 = 1.0 - w1 - w2
         for a in range(3):
-            P[i, a] = O[i, a] + D[i, a] * t[i]
+            P[k, a] = O[i, a] + D[i, a] * t[i]
         gx, gy, gz = face_normals[tri, 0], face_normals[tri, 1], face_normals[tri, 2]
         if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
             gx, gy, gz = -gx, -gy, -gz
-        NG[i, 0], NG[i, 1], NG[i, 2] = gx, gy, gz
+        NG[k, 0], NG[k, 1], NG[k, 2] = gx, gy, gz
         nx = w0 * c[0] + w1 * c[3] + w2 * c[6]
         ny = w0 * c[1] + w1 * c[4] + w2 * c[7]
         nz = w0 * c[2] + w1 * c[5] + w2 * c[8]
@@ -75,7 +76,7 @@ def shade_hits(prim, bu, bv, t, O, D, corners, face_normals, base_color, roughne
         nx, ny, nz = nx / ln, ny / ln, nz / ln
         if nx * gx + ny * gy + nz * gz < 0:
             nx, ny, nz = -nx, -ny, -nz
-        N[i, 0], N[i, 1], N[i, 2] = nx, ny, nz
+        N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
         m = int(c[15])
         off = tex_offset[m]
         if off >= 0:
@@ -91,12 +92,12 @@ def shade_hits(prim, bu, bv, t, O, D, corners, face_normals, base_color, roughne
             for a in range(3):
                 top = tex_data[off + ya * tw + xa, a] * (1 - fx) + tex_data[off + ya * tw + xb, a] * fx
                 bot = tex_data[off + yb * tw + xa, a] * (1 - fx) + tex_data[off + yb * tw + xb, a] * fx
-                albedo[i, a] = base_color[m, a] * (top * (1 - fy) + bot * fy)
+                albedo[k, a] = base_color[m, a] * (top * (1 - fy) + bot * fy)
         else:
-            albedo[i, 0], albedo[i, 1], albedo[i, 2] = base_color[m, 0], base_color[m, 1], base_color[m, 2]
-        rough[i] = roughness[m]
-        metal[i] = metallic[m]
-        emis[i, 0], emis[i, 1], emis[i, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
+            albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0], base_color[m, 1], base_color[m, 2]
+        rough[k] = roughness[m]
+        metal[k] = metallic[m]
+        emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
 
 
 def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -43,6 +43,17 @@ class Surface:
         return self.p.shape[0]
 
 
+def empty_surface(n: int, name: str | None = None) -> Surface:
+    """Room for n points: fresh arrays, or this thread's scratch buffers `name` (rt/scratch.py)."""
+    if name is None:
+        v, c = (lambda: np.empty((n, 3), np.float32)), (lambda: np.empty(n, np.float32))  # noqa: E731
+    else:
+        fields = iter(("p", "n", "ng", "albedo", "roughness", "metallic", "emissive"))
+        v = lambda: scratch.buffer(f"{name}.{next(fields)}", (n, 3))  # noqa: E731
+        c = lambda: scratch.buffer(f"{name}.{next(fields)}", (n,))  # noqa: E731
+    return Surface(v(), v(), v(), v(), c(), c(), v())
+
+
 class SceneData:
     """The scene in the flat arrays that the kernels shade with."""
 
@@ -86,14 +97,15 @@ class SceneData:
         self.lights = LightSet(scene, self)
 
     # -- surfaces ----------------------------------------------------------------------------
-    def surface(self, hits: Hits, dirs: np.ndarray, origins: np.ndarray) -> Surface:
-        """Shading data at the hits of rays (only rays that hit: filter first)."""
-        n = hits.prim.shape[0]
-        out = Surface(np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty((n, 3), np.float32),
-                      np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
-                      np.empty((n, 3), np.float32))
+    def surface(self, hits: Hits, dirs: np.ndarray, origins: np.ndarray, sel=None, out: Surface | None = None):
+        """Shading data at the hits of rays: all of them (they must all hit), or those listed
+        in sel; written into `out` when given (a Surface of at least that many points)."""
+        n = hits.prim.shape[0] if sel is None else sel.shape[0]
+        if sel is None:
+            sel = np.arange(n)
+        out = empty_surface(n) if out is None else out.take(slice(0, n))
         if n:
-            kernels.shade_hits(hits.prim, hits.u, hits.v, hits.t, np.ascontiguousarray(origins, np.float32),
+            kernels.shade_hits(sel, hits.prim, hits.u, hits.v, hits.t, np.ascontiguousarray(origins, np.float32),
                                np.ascontiguousarray(dirs, np.float32), self.corners, self.face_normals,
                                self.base_color, self.roughness, self.metallic, self.emissive, self.tex_offset,
                                self.tex_w, self.tex_h, self.tex_data, out.p, out.n, out.ng, out.albedo,
@@ -212,10 +224,12 @@ def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool) -> None:
     raygen.add_unblocked(total, idx, e, blocked, m)
 
 
-def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
-    """Irradiance x cos from every light: one shadow ray per light (a sample per emissive cluster)."""
+def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None) -> np.ndarray:
+    """Irradiance x cos from every light: one shadow ray per light (a sample per emissive cluster).
+    out: an (N,3) array to write into (zeroed here) instead of a new one."""
     n = len(s)
-    total = np.zeros((n, 3), np.float32)
+    total = np.zeros((n, 3), np.float32) if out is None else out
+    total.fill(0)
     rays = scratch.rays("light", n, with_light=True)
     for k in range(data.lights.count):
         dim = rng.reserve(3)
@@ -224,12 +238,14 @@ def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     return total
 
 
-def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True) -> np.ndarray:
+def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None) -> np.ndarray:
     """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
-    contribution there and divided by that probability: accumulates to direct_all."""
+    contribution there and divided by that probability: accumulates to direct_all.
+    out: an (N,3) array to write into (zeroed here) instead of a new one."""
     n = len(s)
     dim = rng.reserve(4)
-    total = np.zeros((n, 3), np.float32)
+    total = np.zeros((n, 3), np.float32) if out is None else out
+    total.fill(0)
     if data.lights.count == 0 or n == 0:
         return total
     rays = scratch.rays("light", n, with_light=True)
@@ -258,8 +274,7 @@ def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray, or
     hits = tracer.intersect(o, dirs)
     hit = np.flatnonzero(hits.prim >= 0)
     miss = np.flatnonzero(hits.prim < 0)
-    sub = Hits(hits.t[hit], hits.prim[hit], hits.u[hit], hits.v[hit])
-    return hit, data.surface(sub, dirs[hit], o[hit]), miss
+    return hit, data.surface(hits, dirs, o, sel=hit), miss
 
 
 def mirror(d: np.ndarray, s: Surface) -> np.ndarray:

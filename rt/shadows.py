@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt import kernels
-from rt.shading import INV_PI, direct_all, direct_one
+from rt import gather, scratch
+from rt.shading import direct_all, direct_one
 
 
 @dataclass
@@ -21,9 +21,11 @@ register_group("shadows", ShadowsOptions)
 
 
 def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
-    """Irradiance x cos at a chunk's pixels, per shadows.lights."""
+    """Irradiance x cos at a chunk's pixels, per shadows.lights (a scratch buffer: valid until
+    this thread's next call)."""
     estimator = direct_all if cf.options.get("shadows.lights") == "all" else direct_one
-    return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed)
+    out = scratch.buffer("shadows.direct", (len(cf.s), 3))
+    return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed, out=out)
 
 
 class ShadowsPass:
@@ -39,13 +41,8 @@ class ShadowsPass:
         grey = rf.options.get("shadows.greyscale")
 
         def work(cf):
-            s = cf.s
             e = direct_irradiance(cf)
-            zero = np.zeros_like(e)
-            if grey:
-                kernels.scatter_lit(out, cf.idx, zero, np.ones_like(e), INV_PI, e, zero)
-            else:
-                kernels.scatter_lit(out, cf.idx, s.emissive, s.albedo, INV_PI, e, zero)
+            gather.write_lit(out, cf.idx, cf.s.emissive, cf.s.albedo, e, None, grey)
             cf.put(direct, e)
 
         rf.for_chunks(work)
