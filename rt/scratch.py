@@ -7,6 +7,7 @@ the same name again: code that recurses uses a name per depth.
 """
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
@@ -15,12 +16,14 @@ _local = threading.local()
 
 
 def buffer(name: str, shape: tuple, dtype=np.float32) -> np.ndarray:
-    store = _local.__dict__.setdefault("store", {})
-    size = int(np.prod(shape))
-    key = (name, np.dtype(dtype).str)
-    flat = store.get(key)
+    try:
+        store = _local.store
+    except AttributeError:
+        store = _local.store = {}
+    size = math.prod(shape)
+    flat = store.get((name, dtype))
     if flat is None or flat.size < size:
-        flat = store[key] = np.empty(max(size, int(size * 1.25), 1024), dtype)
+        flat = store[(name, dtype)] = np.empty(max(size, int(size * 1.25), 1024), dtype)
     return flat[:size].reshape(shape)
 
 
