@@ -14,6 +14,7 @@ from app.profiler import Profiler
 from app.raster.channel_view import CHANNEL_VIEWS, ChannelViewPass, display_mapping
 from app.raster.forward import ForwardLightingPass
 from app.raster.gbuffer import GBufferPass
+from app.raster.gbuffer_pack import GBufferPackPass
 from app.raster.gpu_scene import GpuScene
 from app.raster.lights import assign_shadow_slots, gather_lights
 from app.raster.postprocess import AccumulationPass, DisplayPass
@@ -71,6 +72,7 @@ class Renderer:
         self.options = options or Options()
         self.profiler = profiler or Profiler()
         self.gbuffer = GBufferPass(ctx)
+        self.gbuffer_pack = GBufferPackPass(ctx)
         self.shadow_maps = ShadowMapPass(ctx)
         self.ssao = SSAOPass(ctx)
         self.forward = ForwardLightingPass(ctx)
@@ -163,9 +165,9 @@ class Renderer:
             raster = pass_name == "hybrid" or not rt_gbuffer
             if raster:
                 self.gbuffer.execute(frame)
+                self.gbuffer_pack.execute(frame)
                 with self.profiler.cpu("gbuffer_readback"):
-                    job.readback = {name: read_rgba(frame.channels[name], flip=False) for name in
-                                    ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
+                    job.readback = self.gbuffer_pack.read()
             self.ray_tracing()
             job.cpu = True
         return job
@@ -243,8 +245,8 @@ class Renderer:
         return np.ascontiguousarray(read_rgba(self.frame.channels["accumulated"])[..., :3])
 
     def release(self) -> None:
-        for p in (self.gbuffer, self.shadow_maps, self.ssao, self.forward, self.channel_view, self.accumulation,
-                  self.display, self.uploads):
+        for p in (self.gbuffer, self.gbuffer_pack, self.shadow_maps, self.ssao, self.forward, self.channel_view,
+                  self.accumulation, self.display, self.uploads):
             p.release()
         self.gpu.release()
         if self.rt is not None:

@@ -117,25 +117,75 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True, error_model="numpy")
-def covered_pixels(face, height, width):
-    """Top-row-first pixel ids whose G-buffer texel (bottom-row-first, as GL reads) is covered."""
+def covered_pixels(geometry, height, width):
+    """Top-row-first pixel ids that the packed G-buffer (bottom row first, as GL reads) covers:
+    a non-zero depth word."""
     idx = np.empty(height * width, np.int64)
     m = 0
     for y in range(height):
         row = height - 1 - y
         for x in range(width):
-            if face[row, x, 3] > 0:
+            if geometry[row, x, 0] != 0:
                 idx[m] = y * width + x
                 m += 1
     return idx[:m]
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def unpack_gbuffer(pos, nrm, alb, emi, face, idx, eye, right, up, fwd, tan_half, aspect,
+def camera_rays(eye, right, up, fwd, tan_half, width, height, origin, direction):
+    """Primary rays through pixel centres, row 0 at the top (as app/camera.py: primary_rays)."""
+    aspect = width / height
+    for p in prange(width * height):
+        y, x = p // width, p % width
+        sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
+        dx = right[0] * sx + up[0] * sy + fwd[0]
+        dy = right[1] * sx + up[1] * sy + fwd[1]
+        dz = right[2] * sx + up[2] * sy + fwd[2]
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        direction[p, 0], direction[p, 1], direction[p, 2] = dx * inv, dy * inv, dz * inv
+        origin[p, 0], origin[p, 1], origin[p, 2] = eye[0], eye[1], eye[2]
+
+
+HALF_EXP = np.array([2.0 ** (e - 15) for e in range(32)], np.float32)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _half(h):
+    """IEEE half (low 16 bits of h) to float; the G-buffer holds no infinities or NaNs."""
+    e = (h >> 10) & 0x1F
+    f = np.float32(h & 0x3FF)
+    v = f * np.float32(2.0 ** -24) if e == 0 else (np.float32(1.0) + f * np.float32(1 / 1024)) * HALF_EXP[e]
+    return -v if (h >> 15) & 1 else v
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _snorm16(u):
+    x = np.int32(u & 0xFFFF)
+    x = x - 65536 if x >= 32768 else x
+    return max(np.float32(x) / np.float32(32767.0), np.float32(-1.0))
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _octahedral(word):
+    """A unit vector from its octahedral encoding (2 x snorm16, as GLSL's packSnorm2x16)."""
+    x, y = _snorm16(word), _snorm16(word >> 16)
+    z = np.float32(1.0) - abs(x) - abs(y)
+    if z < 0:
+        sx = np.float32(1.0) if x >= 0 else np.float32(-1.0)
+        sy = np.float32(1.0) if y >= 0 else np.float32(-1.0)
+        x, y = (np.float32(1.0) - abs(y)) * sx, (np.float32(1.0) - abs(x)) * sy
+    inv = np.float32(1.0) / np.sqrt(max(x * x + y * y + z * z, np.float32(1e-20)))
+    return x * inv, y * inv, z * inv
+
+
+@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
+def unpack_gbuffer(geometry, depth_bits, material, idx, eye, right, up, fwd, tan_half, aspect,
                    P, N, NG, albedo, rough, metal, emis, view_dir, depth):
-    """GL's G-buffer textures (bottom row first) -> per-covered-pixel surface arrays and
-    per-pixel view directions and depths, top row first."""
-    height, width = pos.shape[0], pos.shape[1]
+    """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
+    word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions
+    and linear depths, top row first. Positions come back from the pixel's ray and depth."""
+    height, width = geometry.shape[0], geometry.shape[1]
     for p in prange(height * width):
         y, x = p // width, p % width
         sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
@@ -150,20 +200,22 @@ def unpack_gbuffer(pos, nrm, alb, emi, face, idx, eye, right, up, fwd, tan_half,
         p = idx[j]
         y, x = p // width, p % width
         r = height - 1 - y
+        d = depth_bits[r, x, 0]
+        depth[p] = d
+        # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
+        sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
         for a in range(3):
-            P[j, a] = pos[r, x, a]
-            albedo[j, a] = alb[r, x, a]
-            emis[j, a] = emi[r, x, a]
-        depth[p] = pos[r, x, 3]
-        rough[j] = nrm[r, x, 3]
-        metal[j] = alb[r, x, 3]
-        ln = math.sqrt(nrm[r, x, 0] ** 2 + nrm[r, x, 1] ** 2 + nrm[r, x, 2] ** 2)
-        ln = 1.0 / ln if ln > 1e-20 else 0.0
-        N[j, 0], N[j, 1], N[j, 2] = nrm[r, x, 0] * ln, nrm[r, x, 1] * ln, nrm[r, x, 2] * ln
-        ln = math.sqrt(face[r, x, 0] ** 2 + face[r, x, 1] ** 2 + face[r, x, 2] ** 2)
-        ln = 1.0 / ln if ln > 1e-20 else 0.0
-        NG[j, 0], NG[j, 1], NG[j, 2] = face[r, x, 0] * ln, face[r, x, 1] * ln, face[r, x, 2] * ln
-        # the view direction through the surface point itself (exact for the raster G-buffer)
+            P[j, a] = eye[a] + (right[a] * sx + up[a] * sy + fwd[a]) * d
+        N[j, 0], N[j, 1], N[j, 2] = _octahedral(geometry[r, x, 1])
+        NG[j, 0], NG[j, 1], NG[j, 2] = _octahedral(geometry[r, x, 2])
+        c = geometry[r, x, 3]
+        for a in range(3):
+            albedo[j, a] = np.float32((c >> (8 * a)) & 0xFF) * np.float32(1 / 255)
+        metal[j] = np.float32((c >> 24) & 0xFF) * np.float32(1 / 255)
+        m0, m1 = material[r, x, 0], material[r, x, 1]
+        emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
+        rough[j] = _half(m1 >> 16)
         vx, vy, vz = P[j, 0] - eye[0], P[j, 1] - eye[1], P[j, 2] - eye[2]
         ln = math.sqrt(vx * vx + vy * vy + vz * vz)
         if ln > 1e-20:

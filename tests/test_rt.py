@@ -169,3 +169,29 @@ def test_hybrid_swaps_effects(gl):
                                                         for e in ("shadows", "ao", "reflections", "gi")])
         assert np.isfinite(img).all()
         assert np.abs(img - base).mean() > 1e-4, effect
+
+
+def test_packed_gbuffer_matches_float_targets(gl):
+    """The 24-byte G-buffer the CPU reads back holds what the float targets hold."""
+    from app.raster.upload import read_rgba
+    from rt.gbuffer import from_raster
+
+    scene = build_builtin("cafe")
+    r = make(gl, scene)
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    job = r.prepare(cam, 96, 54, "ao")
+    gb = from_raster(job.readback, cam, 96, 54)
+    ch = {n: read_rgba(job.frame.channels[n]).reshape(-1, 4) for n in
+          ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
+    i, s = gb.index, gb.surface
+    assert np.array_equal(np.flatnonzero(ch["g_face"][:, 3] > 0), i)
+    depth = ch["g_position"][i, 3]
+    assert np.allclose(gb.depth[i], depth)
+    assert np.max(np.linalg.norm(s.p - ch["g_position"][i, :3], axis=1) / depth) < 1e-4
+    assert np.abs(s.n - ch["g_normal"][i, :3]).max() < 1e-3
+    assert np.abs(s.ng - ch["g_face"][i, :3]).max() < 1e-3
+    assert np.abs(s.albedo - ch["g_albedo"][i, :3]).max() <= 0.5 / 255 + 1e-6
+    assert np.abs(s.metallic - ch["g_albedo"][i, 3]).max() <= 0.5 / 255 + 1e-6
+    assert np.abs(s.roughness - ch["g_normal"][i, 3]).max() < 1e-3
+    assert np.allclose(s.emissive, ch["g_emissive"][i, :3], rtol=1e-3, atol=1e-4)
+    r.release()
