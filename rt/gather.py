@@ -79,3 +79,55 @@ def write_ao(out, ao_image, pix, open_count, rays, albedo, grey):
         ao_image[p, 0] = v
         for a in range(3):
             out[p, a] = v if grey else albedo[j, a] * v
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _fresnel(albedo, metallic, nx, ny, nz, vx, vy, vz, a):
+    """Schlick's Fresnel, channel a: F0 = 0.04 for dielectrics, the albedo for metals."""
+    f0 = np.float32(0.04) * (np.float32(1.0) - metallic) + albedo * metallic
+    c = min(max(-(nx * vx + ny * vy + nz * vz), np.float32(0.0)), np.float32(1.0))
+    return f0 + (np.float32(1.0) - f0) * (np.float32(1.0) - c) ** 5
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def mirror_rays(P, N, NG, V, sel, eps, origin, direction):
+    """For the points sel[k], seen along V[k]: the mirror direction about the shading normal
+    (about the face normal where that would enter the surface), from an origin nudged to that
+    side; ray k."""
+    for k in range(sel.shape[0]):
+        i = sel[k]
+        vx, vy, vz = V[k, 0], V[k, 1], V[k, 2]
+        c = 2 * (vx * N[i, 0] + vy * N[i, 1] + vz * N[i, 2])
+        rx, ry, rz = vx - c * N[i, 0], vy - c * N[i, 1], vz - c * N[i, 2]
+        if rx * NG[i, 0] + ry * NG[i, 1] + rz * NG[i, 2] <= 0:
+            c = 2 * (vx * NG[i, 0] + vy * NG[i, 1] + vz * NG[i, 2])
+            rx, ry, rz = vx - c * NG[i, 0], vy - c * NG[i, 1], vz - c * NG[i, 2]
+        direction[k, 0], direction[k, 1], direction[k, 2] = rx, ry, rz
+        side = np.float32(-1.0) if NG[i, 0] * rx + NG[i, 1] * ry + NG[i, 2] * rz < 0 else np.float32(1.0)
+        s = side * eps * (np.float32(1.0) + max(abs(P[i, 0]), abs(P[i, 1]), abs(P[i, 2])) * np.float32(1e-3))
+        for a in range(3):
+            origin[k, a] = P[i, a] + NG[i, a] * s
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def add_hit_colour(out, sel, k, emissive, albedo, direct, lit):
+    """out[sel[i]] += emission + (albedo x direct / pi, or the albedo unlit) at hit i."""
+    for i in range(k):
+        p = sel[i]
+        for a in range(3):
+            out[p, a] += emissive[i, a] + (albedo[i, a] * direct[i, a] * INV_PI if lit else albedo[i, a])
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflection):
+    """At the points sel[k]: colour = emission + (1 - F) (colour - emission) + F x inner, with
+    Schlick's F for view directions V; reflection[sel[k]] = (inner, 1) when given."""
+    for k in range(sel.shape[0]):
+        i = sel[k]
+        for a in range(3):
+            f = _fresnel(albedo[i, a], metallic[i], N[i, 0], N[i, 1], N[i, 2], V[k, 0], V[k, 1], V[k, 2], a)
+            e = emissive[i, a]
+            colour[i, a] = e + (np.float32(1.0) - f) * (colour[i, a] - e) + f * inner[k, a]
+        if reflection is not None:
+            reflection[i, 0], reflection[i, 1], reflection[i, 2], reflection[i, 3] = (
+                inner[k, 0], inner[k, 1], inner[k, 2], np.float32(1.0))

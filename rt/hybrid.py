@@ -48,7 +48,9 @@ def hybrid_components(rf) -> dict:
         if ao:
             cf.put(out["rt_ao"], ambient_occlusion(cf) / np.float32(opts.get("ao.rays_per_pixel")))
         if reflections:
-            cf.put(out["rt_reflection"], reflect(cf)[1])
+            reflection = np.zeros((len(cf.s), 4), np.float32)
+            reflect(cf, reflection)
+            cf.put(out["rt_reflection"], reflection)
         if gi:
             cf.put(out["rt_indirect"], indirect_light(cf, cf.s, cf.rng(6)))
 

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.options import opt, register_group
-from rt.shading import INV_PI, direct_one, fresnel_schlick, mirror, trace_from
+from rt import gather, scratch
+from rt.shading import INV_PI, direct_one, empty_surface
+from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
 
 
 @dataclass
@@ -21,51 +23,65 @@ class ReflectionsOptions:
 register_group("reflections", ReflectionsOptions)
 
 
-def shade_local(cf, s, rng, lit: bool) -> np.ndarray:
-    """Colour of a surface without its reflection: diffuse direct light, or the material colour."""
-    if lit:
-        return s.albedo * INV_PI * direct_one(cf.data, cf.tracer, s, rng)
-    return s.albedo.copy()
+def _env(environment):
+    kind = {"black": 0, "constant": 1, "sky": 2}[environment.kind]
+    color = np.asarray(environment.color if kind == 1 else (environment.strength, 0, 0), np.float32)
+    return kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND
 
 
-def reflected_radiance(cf, s, incoming, rng, depth: int) -> np.ndarray:
-    """Radiance arriving along the mirror direction at surfaces s, following up to `depth` mirrors.
-    Every step runs even on no points, so each pixel draws the same numbers however it is chunked."""
+def reflected_radiance(cf, s, sel, view, rng, depth: int, level: int = 0) -> np.ndarray:
+    """Radiance arriving along the mirror directions at the points sel of s (viewed along
+    `view`, one row per point of sel), following up to `depth` mirrors; a scratch buffer of
+    this level. Every step runs even on no points, so each pixel draws the same numbers
+    however the frame is chunked."""
     thr = cf.options.get("reflections.roughness_threshold")
     lit = cf.options.get("reflections.lit")
-    d = mirror(incoming, s)
-    out = np.zeros((len(s), 3), np.float32)
-    hit, sh, miss = trace_from(cf.data, cf.tracer, s, d)
-    if miss.size:
-        out[miss] = cf.environment.radiance(d[miss])
-    hrng = rng.subset(hit)
-    color = sh.emissive + shade_local(cf, sh, hrng, lit)
+    m, name = sel.shape[0], f"refl{level}"
+    out = scratch.buffer(name + ".out", (m, 3))
+    out.fill(0)
+    o, d, _, owner = scratch.rays(name, m)
+    gather.mirror_rays(s.p, s.n, s.ng, view, sel, cf.data.eps, o, d)
+    hits = cf.tracer.intersect(o[:m], d[:m])
+    owner[:m] = np.arange(m)
+    hit = scratch.buffer(name + ".hit", (m,), np.int64)
+    k = gather.split_hits(hits.prim, m, d, owner, out, *_env(cf.environment), hit)
+    hit = hit[:k]
+    sh = cf.data.surface(hits, d, o, sel=hit, out=empty_surface(k, name + ".surface"))
+    keys = scratch.buffer(name + ".keys", (k,), np.uint64)
+    gather.gather_keys(rng.key, owner, hit, k, keys)  # rng: one generator per point of sel
+    hrng = rng.with_keys(keys)
+    direct = scratch.buffer(name + ".direct", (k, 3))
+    if lit:
+        direct_one(cf.data, cf.tracer, sh, hrng, out=direct)
+    colour = scratch.buffer(name + ".colour", (k, 3))
+    colour.fill(0)
+    gather.add_hit_colour(colour, np.arange(k), k, sh.emissive, sh.albedo, direct, lit)
     if depth > 1:
-        smooth = np.nonzero(sh.roughness < thr)[0]
-        ss = sh.take(smooth)
-        f = fresnel_schlick(ss, d[hit][smooth])
-        inner = reflected_radiance(cf, ss, d[hit][smooth], hrng.subset(smooth), depth - 1)
-        color[smooth] = ss.emissive + (1 - f) * (color[smooth] - ss.emissive) + f * inner
-    out[hit] = color
+        smooth = np.flatnonzero(sh.roughness < thr)
+        inner = reflected_radiance(cf, sh, smooth, d[hit][smooth], hrng.subset(smooth), depth - 1, level + 1)
+        gather.blend_mirror(colour, smooth, sh.emissive, sh.albedo, sh.metallic, sh.n, d[hit][smooth], inner, None)
+    out[hit] = colour
     return out
 
 
-def reflect(cf) -> tuple[np.ndarray, np.ndarray]:
-    """A chunk's colour with reflections blended in (without emission), and the reflection
-    itself as RGBA (alpha 1 where a reflection ray was traced)."""
+def reflect(cf, reflection: np.ndarray | None = None) -> np.ndarray:
+    """A chunk's colour with reflections blended in (without emission); the reflection itself
+    goes into `reflection` as RGBA (alpha 1 where a reflection ray was traced), one row a point."""
     s = cf.s
     rng = cf.rng(3)
-    local = shade_local(cf, s, rng, cf.options.get("reflections.lit"))
-    smooth = np.nonzero(s.roughness < cf.options.get("reflections.roughness_threshold"))[0]
-    reflection = np.zeros((len(s), 4), np.float32)
-    ss = s.take(smooth)
+    local = scratch.buffer("refl.local", (len(s), 3))
+    if cf.options.get("reflections.lit"):
+        direct_one(cf.data, cf.tracer, s, rng, out=local)
+        local *= s.albedo * INV_PI
+    else:
+        local[:] = s.albedo
+    smooth = np.flatnonzero(s.roughness < cf.options.get("reflections.roughness_threshold"))
     view = cf.view[smooth]
-    refl = reflected_radiance(cf, ss, view, rng.subset(smooth), cf.options.get("reflections.max_depth"))
-    f = fresnel_schlick(ss, view)
-    local[smooth] = (1 - f) * local[smooth] + f * refl  # emission is added unblended by the caller
-    reflection[smooth, :3] = refl
-    reflection[smooth, 3] = 1.0
-    return local, reflection
+    refl = reflected_radiance(cf, s, smooth, view, rng.subset(smooth), cf.options.get("reflections.max_depth"))
+    zero = scratch.buffer("refl.zero", (len(s), 3))
+    zero.fill(0)
+    gather.blend_mirror(local, smooth, zero, s.albedo, s.metallic, s.n, view, refl, reflection)
+    return local
 
 
 class ReflectionsPass:
@@ -80,8 +96,11 @@ class ReflectionsPass:
         out, reflection_image = rf.background(), rf.image(4)
 
         def work(cf):
-            local, reflection = reflect(cf)
-            cf.put(out, cf.s.emissive + local)
+            reflection = scratch.buffer("refl.rgba", (len(cf.s), 4))
+            reflection.fill(0)
+            local = reflect(cf, reflection)
+            local += cf.s.emissive
+            cf.put(out, local)
             cf.put(reflection_image, reflection)
 
         rf.for_chunks(work)
