@@ -185,6 +185,7 @@ def cluster_shadow_rays(lo, hi, P, N, NG, keys, dim, rows, keep, alias, eps, ori
 
 
 BLOCK = 64  # points whose light weights are computed together, one light at a time (vectorises)
+SCRATCH_ROWS = 9  # one_light_shadow_rays' scratch rows besides the weights
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -226,12 +227,13 @@ def one_light_shadow_rays(P, N, NG, keys, dim, analytic, emitters, guide, eps, f
                           e, idx):
     """One light per point, picked with probability ~ its estimated contribution there, sampled
     and divided by that probability (unbiased: accumulates to all lights); packed.
-    weights: (lights + 7, BLOCK) scratch."""
+    weights: (lights + SCRATCH_ROWS, BLOCK) scratch."""
     kind, lpos, ldir, lrad, cos_out, spot_scale, ang, lum = analytic
     start, rows, keep, alias = emitters
     count_analytic = kind.shape[0]
-    n_lights = weights.shape[0] - 7
-    soa, tot, w = weights[n_lights:n_lights + 6], weights[n_lights + 6], weights[:n_lights]
+    n_lights = weights.shape[0] - SCRATCH_ROWS
+    w = weights[:n_lights]  # weights, then their running sums over the lights
+    soa, total, target, pick = weights[n_lights:n_lights + 6], weights[-3], weights[-2], weights[-1]
     m = 0
     for b0 in range(0, P.shape[0], BLOCK):
         nb = min(BLOCK, P.shape[0] - b0)
@@ -239,24 +241,25 @@ def one_light_shadow_rays(P, N, NG, keys, dim, analytic, emitters, guide, eps, f
             for a in range(3):
                 soa[a, i] = P[b0 + i, a]
                 soa[3 + a, i] = N[b0 + i, a]
-            tot[i] = ZERO
         _light_weights(soa, nb, guide, w)
-        for k in range(n_lights):
+        for k in range(1, n_lights):  # running sums, a light at a time across the block
             for i in range(nb):
-                tot[i] += w[k, i]
+                w[k, i] += w[k - 1, i]
+        for i in range(nb):
+            total[i] = w[n_lights - 1, i]
+            target[i] = uniform(keys[b0 + i], dim) * total[i]
+            pick[i] = ZERO
+        for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
+            for i in range(nb):
+                pick[i] += ONE if w[k, i] <= target[i] else ZERO
         for b in range(nb):
             i = b0 + b
             px, py, pz = P[i, 0], P[i, 1], P[i, 2]
-            total = tot[b]
-            key = keys[i]
-            target = uniform(key, dim) * total
-            k = 0
-            acc = w[0, b]
-            while k < n_lights - 1 and acc <= target:
-                k += 1
-                acc += w[k, b]
-            prob = w[k, b] / total if total > ZERO else ZERO
+            k = int(pick[b])
+            wk = w[k, b] - (w[k - 1, b] if k > 0 else ZERO)
+            prob = wk / total[b] if total[b] > ZERO else ZERO
             inv = ONE / prob if prob > ZERO else ZERO
+            key = keys[i]
             u1, u2, u3 = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
             if k < count_analytic:
                 if kind[k] == 2:

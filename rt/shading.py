@@ -203,7 +203,7 @@ class LightSet:
 
     def one_rays(self, s: Surface, keys, dim: int, origin, direction, tmax, e, idx) -> int:
         """One shadow ray per point to a light picked by its estimated contribution, packed."""
-        weights = scratch.buffer("light.w", (self.count + 7, raygen.BLOCK))
+        weights = scratch.buffer("light.w", (self.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
         return raygen.one_light_shadow_rays(s.p, s.n, s.ng, keys, dim, self.analytic, self.emitters, self.guide,
                                             self.data.eps, self.data.far, weights, origin, direction, tmax, e, idx)
 
