@@ -30,14 +30,11 @@ class RtFrame:
 
     def background(self) -> np.ndarray:
         """(N,3) image holding the environment's radiance; passes fill in covered pixels."""
+        from rt.gather import env_args
         from rt.kernels import background_fill
-        from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
 
-        env = self.environment
         out = self._buffer("background", 3)
-        kind = {"black": 0, "constant": 1, "sky": 2}[env.kind]
-        color = np.asarray(env.color if kind == 1 else (env.strength, 0, 0), np.float32)
-        background_fill(out, self.gb.view_dir, self.gb.covered, kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND)
+        background_fill(out, self.gb.view_dir, self.gb.covered, *env_args(self.environment))
         return out
 
     def for_chunks(self, work) -> None:

@@ -7,32 +7,37 @@ that holds the GIL; with 16 tracing threads that glue serialises and caps the sp
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
+from rt.kernels import environment
+
 INV_PI = np.float32(1 / np.pi)
+
+
+def env_args(environment) -> tuple:
+    """An environment as kernel arguments (split_hits, kernels.background_fill): kind (0 black,
+    1 constant colour, 2 the analytic sky of scenes/model.py), colour (the sky's strength in
+    [0]), and the sky's horizon, zenith and ground colours."""
+    from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
+
+    kind = {"black": 0, "constant": 1, "sky": 2}[environment.kind]
+    color = np.asarray(environment.color if kind == 1 else (environment.strength, 0, 0), np.float32)
+    return kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def split_hits(prim, m, dirs, owner, out, env_kind, env_color, horizon, zenith, ground, sel):
     """sel[:k] = the rays j < m that hit something (returns k); a ray that missed adds the
-    environment's radiance along dirs[j] to out[owner[j]] (kinds as kernels.background_fill)."""
+    environment's radiance along dirs[j] to out[owner[j]] (kinds as env_args)."""
     k = 0
     for j in range(m):
         if prim[j] >= 0:
             sel[k] = j
             k += 1
-        elif env_kind == 1:
+        elif env_kind != 0:
             for a in range(3):
-                out[owner[j], a] += env_color[a]
-        elif env_kind == 2:
-            y = min(max(dirs[j, 1], -1.0), 1.0)
-            u = math.sqrt(abs(y))
-            for a in range(3):
-                c = horizon[a] * (1 - u) + zenith[a] * u if y >= 0 else horizon[a] * (1 - u) * 0.5 + ground[a] * u
-                out[owner[j], a] += c * env_color[0]
+                out[owner[j], a] += environment(dirs[j, 1], a, env_kind, env_color, horizon, zenith, ground)
     return k
 
 

@@ -13,7 +13,6 @@ import numpy as np
 from app.options import opt, register_group
 from rt import gather, raygen, scratch
 from rt.shading import direct_one, empty_surface
-from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
 
 
 @dataclass
@@ -24,13 +23,6 @@ class GIOptions:
 
 
 register_group("gi", GIOptions)
-
-
-def _env(environment):
-    """The environment as kernel arguments (kinds as kernels.background_fill)."""
-    kind = {"black": 0, "constant": 1, "sky": 2}[environment.kind]
-    color = np.asarray(environment.color if kind == 1 else (environment.strength, 0, 0), np.float32)
-    return kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND
 
 
 def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0) -> np.ndarray:
@@ -45,7 +37,7 @@ def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0) 
     m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
     hits = cf.tracer.intersect(o[:m], d[:m])  # rays below the true surface carry nothing
     sel = scratch.buffer(name + ".sel", (m,), np.int64)
-    k = gather.split_hits(hits.prim, m, d, owner, out, *_env(cf.environment), sel)
+    k = gather.split_hits(hits.prim, m, d, owner, out, *gather.env_args(cf.environment), sel)
     sel = sel[:k]
     sh = cf.data.surface(hits, d, o, sel=sel, out=empty_surface(k, name + ".hit"))
     keys = scratch.buffer(name + ".keys", (k,), np.uint64)

@@ -245,37 +245,27 @@ def scatter_rows(out, idx, values):
             out[idx[j], a] = values[j, a]
 
 
-@njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def scatter_lit(out, idx, emissive, albedo, scale, light, extra):
-    """out[idx[j]] = emissive + albedo * (scale * light + extra): diffuse shading into an image."""
-    for j in prange(idx.shape[0]):
-        i = idx[j]
-        for a in range(3):
-            out[i, a] = emissive[j, a] + albedo[j, a] * (scale * light[j, a] + extra[j, a])
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def environment(y, a, kind, color, horizon, zenith, ground):
+    """Channel a of the environment's radiance towards a direction of height y: black, a
+    constant colour, or the analytic sky (scenes/model.py: sky_radiance, times color[0])."""
+    if kind == 0:
+        return np.float32(0.0)
+    if kind == 1:
+        return color[a]
+    y = min(max(y, -1.0), 1.0)
+    u = math.sqrt(abs(y))
+    c = horizon[a] * (1 - u) + zenith[a] * u if y >= 0 else horizon[a] * (1 - u) * 0.5 + ground[a] * u
+    return c * color[0]
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def background_fill(out, view_dir, covered, kind, color, horizon, zenith, ground):
-    """Uncovered pixels get the environment's radiance (kind 0 black, 1 constant colour, 2 the
-    analytic sky of scenes/model.py: sky_radiance, times color[0]); covered ones 0."""
+    """Uncovered pixels get the environment's radiance (kinds as rt/gather.py: env_args);
+    covered ones 0."""
     for p in prange(out.shape[0]):
         for a in range(3):
-            out[p, a] = 0.0
-        if covered[p] or kind == 0:
-            continue
-        if kind == 1:
-            for a in range(3):
-                out[p, a] = color[a]
-            continue
-        y = min(max(view_dir[p, 1], -1.0), 1.0)
-        if y >= 0:
-            u = math.sqrt(y)
-            for a in range(3):
-                out[p, a] = (horizon[a] * (1 - u) + zenith[a] * u) * color[0]
-        else:
-            u = math.sqrt(-y)
-            for a in range(3):
-                out[p, a] = (horizon[a] * (1 - u) * 0.5 + ground[a] * u) * color[0]
+            out[p, a] = 0.0 if covered[p] else environment(view_dir[p, 1], a, kind, color, horizon, zenith, ground)
 
 
 # Kernels run from two places: the main (or viewer compute) thread, where numba's own threads
@@ -315,5 +305,4 @@ class _Dual:
 shade_hits = _Dual(shade_hits)
 uniforms = _Dual(uniforms)
 scatter_rows = _Dual(scatter_rows)
-scatter_lit = _Dual(scatter_lit)
 pixel_keys = _Dual(pixel_keys)

@@ -10,7 +10,6 @@ import numpy as np
 from app.options import opt, register_group
 from rt import gather, scratch
 from rt.shading import INV_PI, direct_one, empty_surface
-from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
 
 
 @dataclass
@@ -21,12 +20,6 @@ class ReflectionsOptions:
 
 
 register_group("reflections", ReflectionsOptions)
-
-
-def _env(environment):
-    kind = {"black": 0, "constant": 1, "sky": 2}[environment.kind]
-    color = np.asarray(environment.color if kind == 1 else (environment.strength, 0, 0), np.float32)
-    return kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND
 
 
 def reflected_radiance(cf, s, sel, view, rng, depth: int, level: int = 0) -> np.ndarray:
@@ -44,7 +37,7 @@ def reflected_radiance(cf, s, sel, view, rng, depth: int, level: int = 0) -> np.
     hits = cf.tracer.intersect(o[:m], d[:m])
     owner[:m] = np.arange(m)
     hit = scratch.buffer(name + ".hit", (m,), np.int64)
-    k = gather.split_hits(hits.prim, m, d, owner, out, *_env(cf.environment), hit)
+    k = gather.split_hits(hits.prim, m, d, owner, out, *gather.env_args(cf.environment), hit)
     hit = hit[:k]
     sh = cf.data.surface(hits, d, o, sel=hit, out=empty_surface(k, name + ".surface"))
     keys = scratch.buffer(name + ".keys", (k,), np.uint64)

@@ -195,3 +195,23 @@ def test_packed_gbuffer_matches_float_targets(gl):
     assert np.abs(s.roughness - ch["g_normal"][i, 3]).max() < 1e-3
     assert np.allclose(s.emissive, ch["g_emissive"][i, :3], rtol=1e-3, atol=1e-4)
     r.release()
+
+
+@pytest.mark.parametrize("env", ["sky", "0.1,0.2,0.3", "black"])
+def test_background_kernel_matches_environment(env):
+    """The compiled environment lookup (backgrounds, missed GI rays) is scenes/model.py's."""
+    from rt.frame import RtFrame
+    from rt.gbuffer import CpuGBuffer
+    from scenes.model import Environment
+
+    rng = np.random.default_rng(3)
+    n = 4000
+    view = rng.normal(size=(n, 3)).astype(np.float32)
+    view /= np.linalg.norm(view, axis=1, keepdims=True)
+    covered = rng.random(n) < 0.3
+    environment = Environment.parse(env)
+    gb = CpuGBuffer(80, 50, None, view, covered, np.flatnonzero(covered), None, None)
+    got = RtFrame(None, None, gb, environment, None).background()
+    want = np.zeros((n, 3), np.float32)
+    want[~covered] = environment.radiance(view[~covered])
+    assert np.allclose(got, want, atol=1e-6)
