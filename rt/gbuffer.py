@@ -39,7 +39,7 @@ def from_raster(packed: dict, camera, width: int, height: int) -> CpuGBuffer:
     depth = np.empty(width * height, np.float32)
     r, u, f = (x.astype(np.float64) for x in camera.basis())
     unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx,
-                   camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)), width / height,
+                   camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
                    s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth)
     covered = np.zeros(width * height, bool)
     covered[idx] = True

@@ -131,17 +131,21 @@ def covered_pixels(geometry, height, width):
     return idx[:m]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _pixel_ray(p, width, height, tan_half, right, up, fwd):
+    """The ray through the centre of pixel p (row 0 at the top), of unit length along fwd."""
+    y, x = p // width, p % width
+    sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * (width / height)
+    sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
+    return (right[0] * sx + up[0] * sy + fwd[0], right[1] * sx + up[1] * sy + fwd[1],
+            right[2] * sx + up[2] * sy + fwd[2])
+
+
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def camera_rays(eye, right, up, fwd, tan_half, width, height, origin, direction):
     """Primary rays through pixel centres, row 0 at the top (as app/camera.py: primary_rays)."""
-    aspect = width / height
     for p in prange(width * height):
-        y, x = p // width, p % width
-        sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
-        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
-        dx = right[0] * sx + up[0] * sy + fwd[0]
-        dy = right[1] * sx + up[1] * sy + fwd[1]
-        dz = right[2] * sx + up[2] * sy + fwd[2]
+        dx, dy, dz = _pixel_ray(p, width, height, tan_half, right, up, fwd)
         inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
         direction[p, 0], direction[p, 1], direction[p, 2] = dx * inv, dy * inv, dz * inv
         origin[p, 0], origin[p, 1], origin[p, 2] = eye[0], eye[1], eye[2]
@@ -180,19 +184,14 @@ def _octahedral(word):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def unpack_gbuffer(geometry, depth_bits, material, idx, eye, right, up, fwd, tan_half, aspect,
+def unpack_gbuffer(geometry, depth_bits, material, idx, eye, right, up, fwd, tan_half,
                    P, N, NG, albedo, rough, metal, emis, view_dir, depth):
     """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
     word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions
     and linear depths, top row first. Positions come back from the pixel's ray and depth."""
     height, width = geometry.shape[0], geometry.shape[1]
     for p in prange(height * width):
-        y, x = p // width, p % width
-        sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
-        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
-        dx = right[0] * sx + up[0] * sy + fwd[0]
-        dy = right[1] * sx + up[1] * sy + fwd[1]
-        dz = right[2] * sx + up[2] * sy + fwd[2]
+        dx, dy, dz = _pixel_ray(p, width, height, tan_half, right, up, fwd)
         inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
         view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = dx * inv, dy * inv, dz * inv
         depth[p] = 0.0
@@ -203,10 +202,8 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, eye, right, up, fwd, tan
         d = depth_bits[r, x, 0]
         depth[p] = d
         # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
-        sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
-        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
-        for a in range(3):
-            P[j, a] = eye[a] + (right[a] * sx + up[a] * sy + fwd[a]) * d
+        dx, dy, dz = _pixel_ray(p, width, height, tan_half, right, up, fwd)
+        P[j, 0], P[j, 1], P[j, 2] = eye[0] + dx * d, eye[1] + dy * d, eye[2] + dz * d
         N[j, 0], N[j, 1], N[j, 2] = _octahedral(geometry[r, x, 1])
         NG[j, 0], NG[j, 1], NG[j, 2] = _octahedral(geometry[r, x, 2])
         c = geometry[r, x, 3]
@@ -216,10 +213,6 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, eye, right, up, fwd, tan
         m0, m1 = material[r, x, 0], material[r, x, 1]
         emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
         rough[j] = _half(m1 >> 16)
-        vx, vy, vz = P[j, 0] - eye[0], P[j, 1] - eye[1], P[j, 2] - eye[2]
-        ln = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if ln > 1e-20:
-            view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = vx / ln, vy / ln, vz / ln
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
