@@ -61,6 +61,13 @@ def fullscreen(ctx, fragment: str):
     return cache[key]
 
 
+def bind_channels(prog, frame, names) -> None:
+    """Bind the frame's textures `names` to units 0, 1, … and their samplers of the same names."""
+    for unit, name in enumerate(names):
+        frame.channels[name].use(unit)
+        set_uniform(prog, name, unit)
+
+
 def set_uniform(prog, name: str, value) -> None:
     """Set a uniform if the compiler kept it (unused uniforms are optimised away)."""
     if name in prog:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.gl_context import fullscreen, set_uniform
+from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 
 CHANNEL_VIEWS = ("albedo", "normal", "position", "depth", "roughness", "emissive", "motion")
@@ -46,9 +46,7 @@ class ChannelViewPass:
         with frame.profiler.gpu(self.ctx, "channel_view"):
             t.fbo.use()
             t.fbo.viewport = (0, 0, frame.width, frame.height)
-            for unit, name in enumerate(SOURCES):
-                frame.channels[name].use(unit)
-                set_uniform(prog, name, unit)
+            bind_channels(prog, frame, SOURCES)
             set_uniform(prog, "channel", CHANNEL_VIEWS.index(channel))
             vao.render(vertices=3)
         frame.channels["radiance"] = t["v"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.gl_context import fullscreen, set_uniform
+from app.gl_context import bind_channels, fullscreen
 from app.raster.targets import Targets
 
 SOURCES = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
@@ -29,9 +29,7 @@ class GBufferPackPass:
         with frame.profiler.gpu(self.ctx, "gbuffer_pack"):
             t.fbo.use()
             t.fbo.viewport = (0, 0, frame.width, frame.height)
-            for unit, name in enumerate(SOURCES):
-                frame.channels[name].use(unit)
-                set_uniform(prog, name, unit)
+            bind_channels(prog, frame, SOURCES)
             vao.render(vertices=3)
         frame.channels["packed_geometry"], frame.channels["packed_material"] = t["geometry"], t["material"]
 

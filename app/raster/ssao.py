@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.gl_context import fullscreen, set_uniform
+from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 
 
@@ -43,9 +43,7 @@ class SSAOPass:
         with frame.profiler.gpu(self.ctx, "ssao"):
             raw.fbo.use()
             raw.fbo.viewport = (0, 0, frame.width, frame.height)
-            for unit, name in enumerate(("g_position", "g_normal", "g_face")):
-                frame.channels[name].use(unit)
-                set_uniform(prog, name, unit)
+            bind_channels(prog, frame, ("g_position", "g_normal", "g_face"))
             self.noise.use(3)
             set_uniform(prog, "noise", 3)
             set_uniform(prog, "kernel", self.kernel)
