@@ -32,6 +32,12 @@ def wrap_current_context():
     return moderngl.create_context(require=430)
 
 
+def software_gl(ctx) -> bool:
+    """True on a CPU rasteriser (Mesa's llvmpipe, softpipe, swrast)."""
+    renderer = str(ctx.info.get("GL_RENDERER", "")).lower()
+    return any(name in renderer for name in ("llvmpipe", "softpipe", "swrast"))
+
+
 @lru_cache(maxsize=None)
 def shader_source(name: str) -> str:
     path = SHADER_DIR / name
