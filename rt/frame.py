@@ -82,7 +82,12 @@ class ChunkFrame:
         return self.frame.gb.view_dir[self.idx]
 
     def rng(self, stream: int) -> PixelRng:
-        return PixelRng(self.frame.seed, self.frame.index, self.idx, stream)
+        """As RtFrame.rng, for this chunk's pixels; its keys live in this thread's scratch
+        buffer for the stream (valid until the thread's next chunk)."""
+        from rt import scratch
+
+        keys = scratch.buffer(f"rng{stream}", (len(self.idx),), np.uint64)
+        return PixelRng(self.frame.seed, self.frame.index, self.idx, stream, out=keys)
 
     def put(self, image: np.ndarray, values: np.ndarray) -> None:
         """Write per-pixel values of this chunk into a full image from RtFrame.image()."""

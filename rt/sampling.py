@@ -23,13 +23,14 @@ def _mix(x: np.ndarray) -> np.ndarray:
 class PixelRng:
     """Uniform numbers in [0,1) per pixel; `next(k)` returns k fresh dimensions."""
 
-    def __init__(self, seed: int, frame: int, pixels: np.ndarray, stream: int = 0):
+    def __init__(self, seed: int, frame: int, pixels: np.ndarray, stream: int = 0, out: np.ndarray | None = None):
+        """out: a (len(pixels),) uint64 array to hold the keys (a reused buffer), else a new one."""
         from rt.kernels import pixel_keys
 
         with np.errstate(over="ignore"):
             base = _mix(np.uint64(seed & 0xFFFFFFFF) * _GOLDEN + np.uint64(frame & 0xFFFFFFFF)
                         + np.uint64(stream) * np.uint64(0x632BE59BD9B4E019))
-        self.key = np.empty(pixels.shape[0], np.uint64)
+        self.key = np.empty(pixels.shape[0], np.uint64) if out is None else out
         if pixels.shape[0]:
             pixel_keys(np.ascontiguousarray(pixels, np.int64), base, self.key)
         self._dim = [0]  # shared with subsets: a dimension is never used twice in a frame
