@@ -16,7 +16,7 @@ class CpuGBuffer:
     eye: np.ndarray
     view_dir: np.ndarray  # (N,3) unit, camera -> pixel, every pixel
     covered: np.ndarray  # (N,) bool
-    index: np.ndarray  # (M,) pixel ids of covered pixels, band by band (rt/kernels.py: band_order)
+    index: np.ndarray  # (M,) pixel ids of covered pixels
     surface: Surface  # (M,) primary hits
     depth: np.ndarray  # (N,) linear depth, 0 where uncovered
 
@@ -28,10 +28,10 @@ class CpuGBuffer:
 def from_raster(packed: dict, camera, width: int, height: int) -> CpuGBuffer:
     """packed: the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), as GL reads
     it: uint32 H x W x 4 ("geometry") and H x W x 2 ("material"), bottom row first."""
-    from rt.kernels import band_order, covered_pixels, unpack_gbuffer
+    from rt.kernels import covered_pixels, unpack_gbuffer
 
     geometry = np.ascontiguousarray(packed["geometry"])
-    idx = covered_pixels(geometry, height, width, band_order(height))
+    idx = covered_pixels(geometry, height, width)
     m = idx.size
     s = Surface(*(np.empty((m, 3), np.float32) for _ in range(4)), np.empty(m, np.float32),
                 np.empty(m, np.float32), np.empty((m, 3), np.float32))
@@ -47,7 +47,7 @@ def from_raster(packed: dict, camera, width: int, height: int) -> CpuGBuffer:
 
 
 def trace_primary(data: SceneData, tracer, camera, width: int, height: int) -> CpuGBuffer:
-    from rt.kernels import band_order, banded_flatnonzero, camera_rays
+    from rt.kernels import camera_rays
 
     r, u, f = (x.astype(np.float64) for x in camera.basis())
     o = np.empty((width * height, 3), np.float32)
@@ -55,7 +55,7 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int) -> C
     camera_rays(camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)), width, height, o, d)
     hits = tracer.intersect(o, d)
     covered = hits.hit
-    idx = banded_flatnonzero(covered, height, width, band_order(height))
+    idx = np.flatnonzero(covered)
     s = data.surface(hits, d, o, sel=idx)
     depth = np.zeros(width * height, np.float32)
     depth[idx] = hits.t[idx] * (d[idx] @ f.astype(np.float32))

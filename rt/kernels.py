@@ -10,7 +10,6 @@ import math
 import threading
 import types
 from contextlib import contextmanager
-from functools import lru_cache
 
 import numpy as np
 from numba import njit, prange
@@ -117,49 +116,17 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return keep, alias
 
 
-BAND_ROWS = 8  # rows per band of pixels in band_order
-
-
-@lru_cache(maxsize=8)
-def band_order(height: int) -> np.ndarray:
-    """The bands of BAND_ROWS rows in bit-reversed order (0, 64, 32, 96, ... for 128 bands):
-    covered pixels are listed band by band in this order, so that any contiguous run of them,
-    one thread's chunk, is spread over the whole image. Tracing cost varies a lot from the sky
-    to the floor; in row order the slowest chunk held up the frame (16-core host, 1280x720 AO:
-    chunk times 6.7 to 12.2 ms, median 10.1)."""
-    bands = max(1, -(-height // BAND_ROWS))
-    bits = max(1, (bands - 1).bit_length())
-    rev = [int(format(b, f"0{bits}b")[::-1], 2) for b in range(bands)]
-    order = np.argsort(np.array(rev), kind="stable").astype(np.int64)
-    order.flags.writeable = False
-    return order
-
-
 @njit(cache=True, error_model="numpy")
-def covered_pixels(geometry, height, width, bands):
-    """Pixel ids (row 0 at the top) that the packed G-buffer (bottom row first, as GL reads)
-    covers, a non-zero depth word, listed band by band in the order `bands` (band_order)."""
+def covered_pixels(geometry, height, width):
+    """Top-row-first pixel ids that the packed G-buffer (bottom row first, as GL reads) covers:
+    a non-zero depth word."""
     idx = np.empty(height * width, np.int64)
     m = 0
-    for b in bands:
-        for y in range(b * BAND_ROWS, min((b + 1) * BAND_ROWS, height)):
-            row = height - 1 - y
-            for x in range(width):
-                if geometry[row, x, 0] != 0:
-                    idx[m] = y * width + x
-                    m += 1
-    return idx[:m]
-
-
-@njit(cache=True, error_model="numpy")
-def banded_flatnonzero(mask, height, width, bands):
-    """The True entries of a top-row-first (height * width,) mask, band by band as covered_pixels."""
-    idx = np.empty(height * width, np.int64)
-    m = 0
-    for b in bands:
-        for p in range(b * BAND_ROWS * width, min((b + 1) * BAND_ROWS, height) * width):
-            if mask[p]:
-                idx[m] = p
+    for y in range(height):
+        row = height - 1 - y
+        for x in range(width):
+            if geometry[row, x, 0] != 0:
+                idx[m] = y * width + x
                 m += 1
     return idx[:m]
 

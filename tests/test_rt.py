@@ -184,7 +184,7 @@ def test_packed_gbuffer_matches_float_targets(gl):
     ch = {n: read_rgba(job.frame.channels[n]).reshape(-1, 4) for n in
           ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
     i, s = gb.index, gb.surface
-    assert np.array_equal(np.flatnonzero(ch["g_face"][:, 3] > 0), np.sort(i))
+    assert np.array_equal(np.flatnonzero(ch["g_face"][:, 3] > 0), i)
     depth = ch["g_position"][i, 3]
     assert np.allclose(gb.depth[i], depth)
     assert np.max(np.linalg.norm(s.p - ch["g_position"][i, :3], axis=1) / depth) < 1e-4
@@ -215,18 +215,3 @@ def test_background_kernel_matches_environment(env):
     want = np.zeros((n, 3), np.float32)
     want[~covered] = environment.radiance(view[~covered])
     assert np.allclose(got, want, atol=1e-6)
-
-
-def test_covered_pixels_come_band_by_band_spread_over_the_image():
-    from rt.kernels import BAND_ROWS, band_order, banded_flatnonzero
-
-    height, width = 720, 16
-    order = band_order(height)
-    assert sorted(order.tolist()) == list(range(height // BAND_ROWS))
-    for parts in (2, 4, 16):  # each equal split of the list (one chunk per thread) spans the image
-        for run in np.array_split(order, parts):
-            assert run.max() - run.min() >= 0.7 * len(order)
-    mask = np.random.default_rng(3).random(height * width) < 0.6
-    idx = banded_flatnonzero(mask, height, width, order)
-    assert np.array_equal(np.sort(idx), np.flatnonzero(mask))
-    assert np.array_equal(idx[: mask[: BAND_ROWS * width].sum()], np.flatnonzero(mask[: BAND_ROWS * width]))
