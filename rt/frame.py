@@ -38,8 +38,10 @@ class RtFrame:
         return out
 
     def for_chunks(self, work) -> None:
-        """work(ChunkFrame) for runs of covered pixels, on the tracer's threads."""
-        self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)))
+        """work(ChunkFrame) for runs of covered pixels, on the tracer's threads (chunks sized by
+        what the same work, named by its qualified name, cost in the last frame)."""
+        self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)),
+                               key=getattr(work, "__qualname__", None))
 
     def image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
         """An (N, channels) full-image array filled with `fill`, for chunks to write their pixels

@@ -215,3 +215,43 @@ def test_background_kernel_matches_environment(env):
     want = np.zeros((n, 3), np.float32)
     want[~covered] = environment.radiance(view[~covered])
     assert np.allclose(got, want, atol=1e-6)
+
+
+def test_chunks_take_equal_shares_of_the_measured_cost():
+    from rt.tracer import EmbreeTracer as T
+
+    n = 100_000
+    assert T.balanced_bounds(n, 4).tolist() == [0, 25_000, 50_000, 75_000, 100_000]
+    # the last quarter of the pixels cost 3x as much each: half the cost lies in each part
+    chunks = [slice(0, 75_000), slice(75_000, n)]
+    profile = T.cost_profile(None, chunks, {0: 0.75, 75_000: 0.75}, n)
+    b = T.balanced_bounds(n, 2, profile)
+    assert b[0] == 0 and b[-1] == n and 71_000 < b[1] < 72_000  # 0.9 x cost + 0.1 x pixels: 71.4 k
+    cost = np.where(np.arange(n) < 75_000, 1.0, 3.0)
+    halves = [cost[: b[1]].sum(), cost[b[1]:].sum()]
+    assert abs(halves[0] - halves[1]) / sum(halves) < 0.1
+    # a profile blends with the next frame's measurement rather than jumping to it
+    again = T.cost_profile(profile, [slice(0, 50_000), slice(50_000, n)], {0: 0.5, 50_000: 0.5}, n)
+    assert np.allclose(again, 0.5 * profile + 0.5 * 1.0)
+    # one part measured as nearly free still gets no more than 3 x an equal run
+    skewed = np.r_[np.full(32, 1e-9), np.full(32, 1.0)]
+    sizes = np.diff(T.balanced_bounds(n, 8, skewed))
+    assert sizes.max() <= 1.01 * 3 * n / 8 and sizes.min() >= 0.99 * n / 24 and sizes.sum() == n
+
+
+def test_chunk_balance_keeps_the_image(gl):
+    """Chunk bounds follow last frame's cost; every pixel's numbers are its own, so the image
+    stays the same whatever the bounds."""
+    scene = build_builtin("arcade")
+    r = make(gl, scene)
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    tracer = r.ray_tracing().tracer
+    tracer.set_threads(3)
+    first = r.render(cam, 256, 144, "gi") and r.read_linear()
+    assert tracer._costs  # measured
+    key = next(iter(tracer._costs))
+    tracer._costs[key] = np.linspace(1.0, 50.0, tracer.COST_BINS)  # skewed bounds next time
+    r.reset()
+    second = r.render(cam, 256, 144, "gi") and r.read_linear()
+    assert np.abs(first - second).max() < 1e-5
+    r.release()
