@@ -44,7 +44,8 @@ def set_threads(renderer: Renderer, threads: int) -> None:
 def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frames: int) -> dict:
     tracer = renderer.ray_tracing().tracer
     renderer.reset()
-    renderer.render(camera, *size, pass_name)  # warm-up (JIT, caches)
+    for _ in range(2):  # warm-up: JIT, caches, and chunk bounds balanced from a measured frame
+        renderer.render(camera, *size, pass_name)
     pass_ms, raw_s, rays, other = [], [], [], {}
     for _ in range(frames):
         renderer.render(camera, *size, pass_name)  # timed without recording: copies would bias it
@@ -106,7 +107,7 @@ def run_perf(args) -> int:
         for t in threads:
             set_threads(renderer, t)
             for name in PASSES[:4]:
-                m = measure_pass(renderer, camera, size, name, 1)
+                m = measure_pass(renderer, camera, size, name, 2)  # medians of 2: one frame was too noisy
                 if t == threads[0]:
                     base[name] = m
                 doc["scaling"].append({"scene": scene.name, "size": list(size), "threads": t, "pass": name,
