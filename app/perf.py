@@ -55,7 +55,7 @@ def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frame
         batches, tracer.recording = tracer.recording, None
         raw_s.append(tracer.replay(batches))
         rays.append(sum(b[1].shape[0] for b in batches))
-        for k in ("gbuffer", "gbuffer_readback", "upload"):
+        for k in ("gbuffer", "gbuffer_readback", "gbuffer_unpack", "upload"):
             other.setdefault(k, []).append(renderer.profiler.frame.get(k, 0.0))
     p, r = float(np.median(pass_ms)), float(np.median(raw_s)) * 1e3
     return {"pass": pass_name, "pass_ms": p, "raw_trace_ms": r, "other_ms": p - r, "efficiency": r / p,
@@ -89,7 +89,8 @@ def run_perf(args) -> int:
                 doc["passes"].append(row)
                 print(f"  {scene.name:8} {size[0]}x{size[1]} {name:12} {row['pass_ms']:9.1f} ms  raw trace "
                       f"{row['raw_trace_ms']:9.1f} ms  {row['rays'] / 1e6:6.2f} Mrays  efficiency "
-                      f"{row['efficiency']:.2f}  readback {row['gbuffer_readback_ms']:.1f} ms  upload "
+                      f"{row['efficiency']:.2f}  readback {row['gbuffer_readback_ms']:.1f} ms  unpack "
+                      f"{row['gbuffer_unpack_ms']:.1f} ms  upload "
                       f"{row['upload_ms']:.1f} ms", flush=True)
             # G-buffer: raster (GPU + readback) vs primary rays
             opts = renderer.options

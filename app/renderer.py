@@ -182,10 +182,11 @@ class Renderer:
         frame, rt = job.frame, self.ray_tracing()
         rays0 = rt.tracer.rays_traced
         if job.readback is not None:
-            gb = from_raster(job.readback, frame.camera, frame.width, frame.height)
+            with self.profiler.cpu("gbuffer_unpack"):
+                gb = from_raster(job.readback, frame.camera, frame.width, frame.height, reuse=True)
         else:
             with self.profiler.cpu("gbuffer_rt"):
-                gb = trace_primary(rt.data, rt.tracer, frame.camera, frame.width, frame.height)
+                gb = trace_primary(rt.data, rt.tracer, frame.camera, frame.width, frame.height, reuse=True)
         rf = RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index, self._rt_buffers)
         if job.pass_name in CHANNEL_VIEWS:
             job.result = {"radiance": rt_channel(rf, frame, job.pass_name)}

@@ -25,38 +25,52 @@ class CpuGBuffer:
         return self.width * self.height
 
 
-def from_raster(packed: dict, camera, width: int, height: int) -> CpuGBuffer:
+def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
     """packed: the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), as GL reads
-    it: uint32 H x W x 4 ("geometry") and H x W x 2 ("material"), bottom row first."""
+    it: uint32 H x W x 4 ("geometry") and H x W x 2 ("material"), bottom row first.
+    reuse: build it in this thread's scratch buffers (rt/scratch.py), valid until the thread's
+    next call: fresh arrays are ~80 MB a frame at 1280x720, and their page faults cost more than
+    the unpacking (2-core machine: 130-160 ms a frame, 27 ms reused)."""
+    from rt import scratch
     from rt.kernels import covered_pixels, unpack_gbuffer
 
+    n = width * height
+    new = (lambda name, shape, dtype=np.float32: np.empty(shape, dtype)) if not reuse else (  # noqa: E731
+        lambda name, shape, dtype=np.float32: scratch.buffer("gbuffer." + name, shape, dtype))
     geometry = np.ascontiguousarray(packed["geometry"])
-    idx = covered_pixels(geometry, height, width)
-    m = idx.size
-    s = Surface(*(np.empty((m, 3), np.float32) for _ in range(4)), np.empty(m, np.float32),
-                np.empty(m, np.float32), np.empty((m, 3), np.float32))
-    view = np.empty((width * height, 3), np.float32)
-    depth = np.empty(width * height, np.float32)
+    idx = new("index", (n,), np.int64)
+    m = covered_pixels(geometry, height, width, idx)
+    idx = idx[:m]
+    s = Surface(*(new(f, (m, 3)) for f in ("p", "n", "ng", "albedo")), new("roughness", (m,)),
+                new("metallic", (m,)), new("emissive", (m, 3)))
+    view = new("view", (n, 3))
+    depth = new("depth", (n,))
     r, u, f = (x.astype(np.float64) for x in camera.basis())
     unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx,
                    camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
                    s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth)
-    covered = np.zeros(width * height, bool)
+    covered = new("covered", (n,), np.bool_)
+    covered.fill(False)
     covered[idx] = True
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth)
 
 
-def trace_primary(data: SceneData, tracer, camera, width: int, height: int) -> CpuGBuffer:
+def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
+    """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse as from_raster."""
+    from rt import scratch
     from rt.kernels import camera_rays
+    from rt.shading import empty_surface
 
+    n = width * height
     r, u, f = (x.astype(np.float64) for x in camera.basis())
-    o = np.empty((width * height, 3), np.float32)
-    d = np.empty((width * height, 3), np.float32)
+    o = scratch.buffer("gbuffer.rt.o", (n, 3)) if reuse else np.empty((n, 3), np.float32)
+    d = scratch.buffer("gbuffer.rt.d", (n, 3)) if reuse else np.empty((n, 3), np.float32)
     camera_rays(camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)), width, height, o, d)
     hits = tracer.intersect(o, d)
     covered = hits.hit
     idx = np.flatnonzero(covered)
-    s = data.surface(hits, d, o, sel=idx)
-    depth = np.zeros(width * height, np.float32)
+    s = data.surface(hits, d, o, sel=idx, out=empty_surface(len(idx), "gbuffer.rt.s") if reuse else None)
+    depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
+    depth.fill(0)
     depth[idx] = hits.t[idx] * (d[idx] @ f.astype(np.float32))
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), d, covered, idx, s, depth)

@@ -117,10 +117,9 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True, error_model="numpy")
-def covered_pixels(geometry, height, width):
-    """Top-row-first pixel ids that the packed G-buffer (bottom row first, as GL reads) covers:
-    a non-zero depth word."""
-    idx = np.empty(height * width, np.int64)
+def covered_pixels(geometry, height, width, idx):
+    """Top-row-first pixel ids that the packed G-buffer (bottom row first, as GL reads) covers
+    (a non-zero depth word), written to idx[:m] (room for height * width); returns m."""
     m = 0
     for y in range(height):
         row = height - 1 - y
@@ -128,7 +127,7 @@ def covered_pixels(geometry, height, width):
             if geometry[row, x, 0] != 0:
                 idx[m] = y * width + x
                 m += 1
-    return idx[:m]
+    return m
 
 
 @njit(cache=True, error_model="numpy", inline="always")

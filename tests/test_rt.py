@@ -255,3 +255,21 @@ def test_chunk_balance_keeps_the_image(gl):
     second = r.render(cam, 256, 144, "gi") and r.read_linear()
     assert np.abs(first - second).max() < 1e-5
     r.release()
+
+
+def test_reused_gbuffer_matches_a_fresh_one_and_keeps_its_memory(gl):
+    from rt.gbuffer import from_raster
+
+    scene = build_builtin("street")
+    r = make(gl, scene)
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    job = r.prepare(cam, 96, 54, "ao")
+    fresh = from_raster(job.readback, cam, 96, 54)
+    reused = from_raster(job.readback, cam, 96, 54, reuse=True)
+    for a, b in [(fresh.index, reused.index), (fresh.covered, reused.covered), (fresh.depth, reused.depth),
+                 (fresh.view_dir, reused.view_dir)] + [(getattr(fresh.surface, f), getattr(reused.surface, f))
+                                                       for f in fresh.surface.__dataclass_fields__]:
+        assert np.array_equal(a, b)
+    again = from_raster(job.readback, cam, 96, 54, reuse=True)
+    assert np.shares_memory(again.surface.p, reused.surface.p) and np.shares_memory(again.view_dir, reused.view_dir)
+    r.release()
