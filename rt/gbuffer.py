@@ -39,19 +39,18 @@ def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = Fal
         lambda name, shape, dtype=np.float32: scratch.buffer("gbuffer." + name, shape, dtype))
     geometry = np.ascontiguousarray(packed["geometry"])
     idx = new("index", (n,), np.int64)
-    m = covered_pixels(geometry, height, width, idx)
+    row_start = new("rows", (height + 1,), np.int64)
+    m = covered_pixels(geometry, height, width, idx, row_start)
     idx = idx[:m]
     s = Surface(*(new(f, (m, 3)) for f in ("p", "n", "ng", "albedo")), new("roughness", (m,)),
                 new("metallic", (m,)), new("emissive", (m, 3)))
     view = new("view", (n, 3))
     depth = new("depth", (n,))
-    r, u, f = (x.astype(np.float64) for x in camera.basis())
-    unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx,
-                   camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
-                   s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth)
     covered = new("covered", (n,), np.bool_)
-    covered.fill(False)
-    covered[idx] = True
+    r, u, f = (x.astype(np.float64) for x in camera.basis())
+    unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx, row_start,
+                   camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
+                   s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth, covered)
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth)
 
 

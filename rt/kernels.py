@@ -117,16 +117,19 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True, error_model="numpy")
-def covered_pixels(geometry, height, width, idx):
+def covered_pixels(geometry, height, width, idx, row_start):
     """Top-row-first pixel ids that the packed G-buffer (bottom row first, as GL reads) covers
-    (a non-zero depth word), written to idx[:m] (room for height * width); returns m."""
+    (a non-zero depth word), written to idx[:m] (room for height * width), with row y's pixels
+    at idx[row_start[y]:row_start[y + 1]] (row_start: height + 1 entries); returns m."""
     m = 0
     for y in range(height):
+        row_start[y] = m
         row = height - 1 - y
         for x in range(width):
             if geometry[row, x, 0] != 0:
                 idx[m] = y * width + x
                 m += 1
+    row_start[height] = m
     return m
 
 
@@ -183,35 +186,48 @@ def _octahedral(word):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def unpack_gbuffer(geometry, depth_bits, material, idx, eye, right, up, fwd, tan_half,
-                   P, N, NG, albedo, rough, metal, emis, view_dir, depth):
+def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, up, fwd, tan_half,
+                   P, N, NG, albedo, rough, metal, emis, view_dir, depth, covered):
     """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
-    word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions
-    and linear depths, top row first. Positions come back from the pixel's ray and depth."""
+    word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions,
+    linear depths and coverage, top row first. Positions come back from the pixel's ray and
+    depth. Row by row (idx and row_start from covered_pixels): no division per pixel."""
     height, width = geometry.shape[0], geometry.shape[1]
-    for p in prange(height * width):
-        dx, dy, dz = _pixel_ray(p, width, height, tan_half, right, up, fwd)
-        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
-        view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = dx * inv, dy * inv, dz * inv
-        depth[p] = 0.0
-    for j in prange(idx.shape[0]):
-        p = idx[j]
-        y, x = p // width, p % width
+    aspect = width / height
+    for y in prange(height):
         r = height - 1 - y
-        d = depth_bits[r, x, 0]
-        depth[p] = d
-        # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
-        dx, dy, dz = _pixel_ray(p, width, height, tan_half, right, up, fwd)
-        P[j, 0], P[j, 1], P[j, 2] = eye[0] + dx * d, eye[1] + dy * d, eye[2] + dz * d
-        N[j, 0], N[j, 1], N[j, 2] = _octahedral(geometry[r, x, 1])
-        NG[j, 0], NG[j, 1], NG[j, 2] = _octahedral(geometry[r, x, 2])
-        c = geometry[r, x, 3]
-        for a in range(3):
-            albedo[j, a] = np.float32((c >> (8 * a)) & 0xFF) * np.float32(1 / 255)
-        metal[j] = np.float32((c >> 24) & 0xFF) * np.float32(1 / 255)
-        m0, m1 = material[r, x, 0], material[r, x, 1]
-        emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
-        rough[j] = _half(m1 >> 16)
+        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half  # as _pixel_ray
+        for x in range(width):
+            p = y * width + x
+            sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+            dx = right[0] * sx + up[0] * sy + fwd[0]
+            dy = right[1] * sx + up[1] * sy + fwd[1]
+            dz = right[2] * sx + up[2] * sy + fwd[2]
+            inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+            view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = dx * inv, dy * inv, dz * inv
+            depth[p] = 0.0
+            covered[p] = False
+        for j in range(row_start[y], row_start[y + 1]):
+            p = idx[j]
+            x = p - y * width
+            d = depth_bits[r, x, 0]
+            depth[p] = d
+            covered[p] = True
+            # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
+            sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+            dx = right[0] * sx + up[0] * sy + fwd[0]
+            dy = right[1] * sx + up[1] * sy + fwd[1]
+            dz = right[2] * sx + up[2] * sy + fwd[2]
+            P[j, 0], P[j, 1], P[j, 2] = eye[0] + dx * d, eye[1] + dy * d, eye[2] + dz * d
+            N[j, 0], N[j, 1], N[j, 2] = _octahedral(geometry[r, x, 1])
+            NG[j, 0], NG[j, 1], NG[j, 2] = _octahedral(geometry[r, x, 2])
+            c = geometry[r, x, 3]
+            for a in range(3):
+                albedo[j, a] = np.float32((c >> (8 * a)) & 0xFF) * np.float32(1 / 255)
+            metal[j] = np.float32((c >> 24) & 0xFF) * np.float32(1 / 255)
+            m0, m1 = material[r, x, 0], material[r, x, 1]
+            emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
+            rough[j] = _half(m1 >> 16)
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
