@@ -171,15 +171,20 @@ def test_hybrid_swaps_effects(gl):
         assert np.abs(img - base).mean() > 1e-4, effect
 
 
+def prepared_frame(gl, name: str, size=(96, 54)):
+    """A renderer on a built-in scene, its default camera, and an AO frame prepared (G-buffer read back)."""
+    scene = build_builtin(name)
+    r = make(gl, scene)
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    return r, cam, r.prepare(cam, *size, "ao")
+
+
 def test_packed_gbuffer_matches_float_targets(gl):
     """The 24-byte G-buffer the CPU reads back holds what the float targets hold."""
     from app.raster.upload import read_rgba
     from rt.gbuffer import from_raster
 
-    scene = build_builtin("cafe")
-    r = make(gl, scene)
-    cam = Camera.from_view(scene.default_view(), scene.diagonal)
-    job = r.prepare(cam, 96, 54, "ao")
+    r, cam, job = prepared_frame(gl, "cafe")
     gb = from_raster(job.readback, cam, 96, 54)
     ch = {n: read_rgba(job.frame.channels[n]).reshape(-1, 4) for n in
           ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
@@ -260,10 +265,7 @@ def test_chunk_balance_keeps_the_image(gl):
 def test_reused_gbuffer_matches_a_fresh_one_and_keeps_its_memory(gl):
     from rt.gbuffer import from_raster
 
-    scene = build_builtin("street")
-    r = make(gl, scene)
-    cam = Camera.from_view(scene.default_view(), scene.diagonal)
-    job = r.prepare(cam, 96, 54, "ao")
+    r, cam, job = prepared_frame(gl, "street")
     fresh = from_raster(job.readback, cam, 96, 54)
     reused = from_raster(job.readback, cam, 96, 54, reuse=True)
     for a, b in [(fresh.index, reused.index), (fresh.covered, reused.covered), (fresh.depth, reused.depth),
