@@ -25,16 +25,17 @@ class GIOptions:
 register_group("gi", GIOptions)
 
 
-def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0) -> np.ndarray:
+def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0, G=None) -> np.ndarray:
     """One-sample estimate of the radiance arriving along a cosine-sampled direction, per point
     of s (a scratch buffer of this depth: valid until this thread's next call at this depth).
     Every step runs even when no ray hits, so each pixel draws the same numbers however the
-    frame is chunked."""
+    frame is chunked. G: s.soa() if at hand."""
     n, name = len(s), f"gi{depth}"
     out = scratch.buffer(name + ".out", (n, 3))
     out.fill(0)
     o, d, _, owner = scratch.rays(name, n)
-    m = raygen.hemisphere_live(s.p, s.n, s.ng, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
+    G = s.soa(name + ".soa") if G is None else G
+    m = raygen.hemisphere_live(G, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
     hits = cf.tracer.intersect(o[:m], d[:m])  # rays below the true surface carry nothing
     sel = scratch.buffer(name + ".sel", (m,), np.int64)
     k = gather.split_hits(hits.prim, m, d, owner, out, *gather.env_args(cf.environment), sel)
@@ -43,20 +44,21 @@ def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0) 
     keys = scratch.buffer(name + ".keys", (k,), np.uint64)
     gather.gather_keys(rng.key, owner, sel, k, keys)
     hrng = rng.with_keys(keys)
-    direct = direct_one(cf.data, cf.tracer, sh, hrng, shadowed, out=scratch.buffer(name + ".direct", (k, 3)))
-    inner = incoming_indirect(cf, sh, hrng, bounces - 1, shadowed, depth + 1) if bounces > 1 else None
+    hg = sh.soa(name + ".hit.soa")
+    direct = direct_one(cf.data, cf.tracer, sh, hrng, shadowed, out=scratch.buffer(name + ".direct", (k, 3)), G=hg)
+    inner = incoming_indirect(cf, sh, hrng, bounces - 1, shadowed, depth + 1, hg) if bounces > 1 else None
     gather.add_bounce(out, owner, sel, k, sh.albedo, direct, inner)
     return out
 
 
-def indirect_light(cf, s, rng) -> np.ndarray:
+def indirect_light(cf, s, rng, G=None) -> np.ndarray:
     """Mean incoming indirect radiance over gi.rays_per_pixel rays (albedo x this = outgoing)."""
     rays = cf.options.get("gi.rays_per_pixel")
     shadowed = cf.options.get("gi.shadows")
     bounces = cf.options.get("gi.bounces")
     total = np.zeros((len(s), 3), np.float32)
     for _ in range(rays):
-        total += incoming_indirect(cf, s, rng, bounces, shadowed)
+        total += incoming_indirect(cf, s, rng, bounces, shadowed, G=G)
     return total / np.float32(rays)
 
 
@@ -74,8 +76,9 @@ class GIPass:
 
         def work(cf):
             s, rng = cf.s, cf.rng(4)
-            direct = direct_one(cf.data, cf.tracer, s, rng, shadowed, out=scratch.buffer("gi.direct", (len(s), 3)))
-            indirect = indirect_light(cf, s, rng)
+            G = s.soa("gi.soa")
+            direct = direct_one(cf.data, cf.tracer, s, rng, shadowed, out=scratch.buffer("gi.direct", (len(s), 3)), G=G)
+            indirect = indirect_light(cf, s, rng, G)
             gather.write_lit(out, cf.idx, s.emissive, s.albedo, direct, indirect, False)
             cf.put(indirect_image, indirect)
 

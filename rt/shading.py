@@ -42,6 +42,13 @@ class Surface:
     def __len__(self) -> int:
         return self.p.shape[0]
 
+    def soa(self, name: str | None = None) -> np.ndarray:
+        """(9, n) rows px, py, pz, nx, ny, nz, ngx, ngy, ngz: what the ray generators read
+        (rt/raygen.py); in this thread's scratch buffer `name` when given."""
+        out = np.empty((9, len(self)), np.float32) if name is None else scratch.buffer(name, (9, len(self)))
+        raygen.surface_soa(self.p, self.n, self.ng, out)
+        return out
+
 
 def empty_surface(n: int, name: str | None = None) -> Surface:
     """Room for n points: fresh arrays, or this thread's scratch buffers `name` (rt/scratch.py)."""
@@ -190,22 +197,23 @@ class LightSet:
                       col(self.cluster_radius), col(self.cluster_power))
         self.data = data
 
-    def rays(self, k: int, s: Surface, keys, dim: int, origin, direction, tmax, e, idx) -> int:
-        """Shadow rays to light k from points s, packed (rt/raygen.py); returns their count."""
+    def rays(self, k: int, G: np.ndarray, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+        """Shadow rays to light k from points G (Surface.soa), packed (rt/raygen.py); returns
+        their count."""
         eps, far = self.data.eps, self.data.far
         out = (origin, direction, tmax, e, idx)
         if k < self.count_analytic:
-            return raygen.analytic_shadow_rays(k, s.p, s.n, s.ng, keys, dim, self.analytic, eps, far, *out)
+            return raygen.analytic_shadow_rays(k, G, keys, dim, self.analytic, eps, far, *out)
         start, rows, keep, alias = self.emitters
         j = k - self.count_analytic
-        return raygen.cluster_shadow_rays(start[j], start[j + 1], s.p, s.n, s.ng, keys, dim, rows, keep, alias, eps,
-                                          *out)
+        return raygen.cluster_shadow_rays(start[j], start[j + 1], G, keys, dim, rows, keep, alias, eps, *out)
 
-    def one_rays(self, s: Surface, keys, dim: int, origin, direction, tmax, e, idx) -> int:
-        """One shadow ray per point to a light picked by its estimated contribution, packed."""
+    def one_rays(self, G: np.ndarray, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+        """One shadow ray per point of G (Surface.soa) to a light picked by its estimated
+        contribution, packed."""
         weights = scratch.buffer("light.w", (self.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
-        return raygen.one_light_shadow_rays(s.p, s.n, s.ng, keys, dim, self.analytic, self.emitters, self.guide,
-                                            self.data.eps, self.data.far, weights, origin, direction, tmax, e, idx)
+        return raygen.one_light_shadow_rays(G, keys, dim, self.analytic, self.emitters, self.guide, self.data.eps,
+                                            self.data.far, weights, origin, direction, tmax, e, idx)
 
     @property
     def count(self) -> int:
@@ -224,24 +232,27 @@ def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool) -> None:
     raygen.add_unblocked(total, idx, e, blocked, m)
 
 
-def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None) -> np.ndarray:
+def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None,
+               G=None) -> np.ndarray:
     """Irradiance x cos from every light: one shadow ray per light (a sample per emissive cluster).
-    out: an (N,3) array to write into (zeroed here) instead of a new one."""
+    out: an (N,3) array to write into (zeroed here) instead of a new one; G: s.soa() if at hand."""
     n = len(s)
     total = np.zeros((n, 3), np.float32) if out is None else out
     total.fill(0)
+    G = s.soa("light.soa") if G is None else G
     rays = scratch.rays("light", n, with_light=True)
     for k in range(data.lights.count):
         dim = rng.reserve(3)
         o, d, t, idx, e = rays
-        _gather(tracer, total, rays, data.lights.rays(k, s, rng.key, dim, o, d, t, e, idx), shadowed)
+        _gather(tracer, total, rays, data.lights.rays(k, G, rng.key, dim, o, d, t, e, idx), shadowed)
     return total
 
 
-def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None) -> np.ndarray:
+def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None,
+               G=None) -> np.ndarray:
     """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
     contribution there and divided by that probability: accumulates to direct_all.
-    out: an (N,3) array to write into (zeroed here) instead of a new one."""
+    out: an (N,3) array to write into (zeroed here) instead of a new one; G: s.soa() if at hand."""
     n = len(s)
     dim = rng.reserve(4)
     total = np.zeros((n, 3), np.float32) if out is None else out
@@ -250,7 +261,8 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
         return total
     rays = scratch.rays("light", n, with_light=True)
     o, d, t, idx, e = rays
-    _gather(tracer, total, rays, data.lights.one_rays(s, rng.key, dim, o, d, t, e, idx), shadowed)
+    G = s.soa("light.soa") if G is None else G
+    _gather(tracer, total, rays, data.lights.one_rays(G, rng.key, dim, o, d, t, e, idx), shadowed)
     return total
 
 
