@@ -69,23 +69,30 @@ def surface_soa(P, N, NG, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _pack(G, b0, nb, blk, m, origin, direction, tmax, e, idx, light):
-    """Append the step's rays that carry something (blk row 7 > 0), in order: origin p + ng x
-    the offset in row 6, direction (rows 0-2), tmax (row 3), the light carried (rows 4, 5, 8)
-    when `light`, and the point's index. Branch-free: every ray is written at slot m, and m
-    moves on only past those kept."""
+def _pack(G, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light):
+    """Append the step's rays that carry something, in order: origin p + ng x offset, direction
+    (blk rows 0-2), and the point's index; for light rays (`light`) tmax from the distance in
+    row 3, stopping short of the light, and the light carried (rows 4-6), kept where it is not
+    zero; for others tmax_value, kept where row 4 > 0. Branch-free: every ray is written at
+    slot m, and m moves on only past those kept. (The step loops leave the offset and tmax to
+    this loop: fewer output rows let them vectorise.)"""
     for j in range(nb):
         i = b0 + j
-        s = blk[6, j]
-        origin[m, 0] = G[0, i] + G[6, i] * s
-        origin[m, 1] = G[1, i] + G[7, i] * s
-        origin[m, 2] = G[2, i] + G[8, i] * s
+        px, py, pz = G[0, i], G[1, i], G[2, i]
+        s = offset(eps, px, py, pz)
+        origin[m, 0] = px + G[6, i] * s
+        origin[m, 1] = py + G[7, i] * s
+        origin[m, 2] = pz + G[8, i] * s
         direction[m, 0], direction[m, 1], direction[m, 2] = blk[0, j], blk[1, j], blk[2, j]
-        tmax[m] = blk[3, j]
-        if light:
-            e[m, 0], e[m, 1], e[m, 2] = blk[4, j], blk[5, j], blk[8, j]
         idx[m] = i
-        m += blk[7, j] > ZERO
+        if light:
+            tmax[m] = max(blk[3, j] - TWO * s, s)
+            ex, ey, ez = blk[4, j], blk[5, j], blk[6, j]
+            e[m, 0], e[m, 1], e[m, 2] = ex, ey, ez
+            m += max(ex, ey, ez) > ZERO
+        else:
+            tmax[m] = tmax_value
+            m += blk[4, j] > ZERO
     return m
 
 
@@ -101,15 +108,13 @@ def about(nx, ny, nz, x, y, z):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _hemisphere_step(px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, eps, tmax_value, dx, dy, dz, tm, sc, keep, nb):
+def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
     for j in range(nb):
         key = keys[j]
         u0, u1 = uniform(key, dim), uniform(key, dim + 1)
         r = np.sqrt(u0)
         x, y, z = about(nx[j], ny[j], nz[j], r * cos_turns(u1), r * sin_turns(u1), np.sqrt(max(ZERO, ONE - u0)))
         dx[j], dy[j], dz[j] = x, y, z
-        tm[j] = tmax_value
-        sc[j] = offset(eps, px[j], py[j], pz[j])
         keep[j] = gx[j] * x + gy[j] * y + gz[j] * z
 
 
@@ -118,14 +123,13 @@ def hemisphere_live(G, keys, dim, eps, tmax_value, origin, direction, tmax, idx)
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
     those above the true surface. Returns the count."""
     n = G.shape[1]
-    blk = np.empty((9, RUN), np.float32)
+    blk = np.empty((7, RUN), np.float32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        _hemisphere_step(G[0, b0:b1], G[1, b0:b1], G[2, b0:b1], G[3, b0:b1], G[4, b0:b1], G[5, b0:b1],
-                         G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, eps, tmax_value,
-                         blk[0], blk[1], blk[2], blk[3], blk[6], blk[7], b1 - b0)
-        m = _pack(G, b0, b1 - b0, blk, m, origin, direction, tmax, origin, idx, False)
+        _hemisphere_step(G[3, b0:b1], G[4, b0:b1], G[5, b0:b1], G[6, b0:b1], G[7, b0:b1], G[8, b0:b1],
+                         keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
+        m = _pack(G, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
     return m
 
 
@@ -140,31 +144,23 @@ def cosine_dirs(N, keys, dim, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _light_ray(j, px, py, pz, nx, ny, nz, gx, gy, gz, eps, x, y, z, dist, ex, ey, ez, dx, dy, dz, tm, er, eg, eb,
-               sc, keep):
-    """Step slot j: a shadow ray towards (x, y, z) with its unshadowed irradiance x cos; it
-    carries light (keep > 0) only where the light is above both the shading and true surface."""
+def _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb):
+    """Step slot j: a shadow ray towards (x, y, z) at distance dist, with its unshadowed
+    irradiance x cos: zero where the light is below the shading or the true surface."""
     cs = nx[j] * x + ny[j] * y + nz[j] * z
     cg = gx[j] * x + gy[j] * y + gz[j] * z
     cs = cs if (cs > ZERO and cg > ZERO) else ZERO
-    s = offset(eps, px[j], py[j], pz[j])
-    dx[j], dy[j], dz[j] = x, y, z
-    tm[j] = max(dist - TWO * s, s)
-    sc[j] = s
-    ex, ey, ez = ex * cs, ey * cs, ez * cs
-    er[j], eg[j], eb[j] = ex, ey, ez
-    keep[j] = max(ex, ey, ez)
+    dx[j], dy[j], dz[j], dd[j] = x, y, z, dist
+    er[j], eg[j], eb[j] = ex * cs, ey * cs, ez * cs
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _sun(k, u0, u1, ldir, ang):
-    """A direction towards sun k, optionally a disc of angular radius ang."""
-    ax, ay, az = -ldir[k, 0], -ldir[k, 1], -ldir[k, 2]
-    if ang[k] > ZERO:
-        ct = ONE - u0 * (ONE - F(math.cos(ang[k])))
-        st = np.sqrt(max(ZERO, ONE - ct * ct))
-        return about(ax, ay, az, st * cos_turns(u1), st * sin_turns(u1), ct)
-    return ax, ay, az
+def _sun(ax, ay, az, cos_ang, u0, u1):
+    """A direction in the cone of half-angle acos(cos_ang) about (ax, ay, az), the direction to
+    a sun (exactly that direction for a point-like sun: cos_ang = 1)."""
+    ct = ONE - u0 * (ONE - cos_ang)
+    st = np.sqrt(max(ZERO, ONE - ct * ct))
+    return about(ax, ay, az, st * cos_turns(u1), st * sin_turns(u1), ct)
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -182,18 +178,17 @@ def _towards(k, px, py, pz, spot, lpos, ldir, cos_out, spot_scale):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, eps, far, dx, dy, dz, tm, er, eg, eb,
-                   sc, keep, nb):
+def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, far, dx, dy, dz, dd, er, eg, eb, nb):
     """One loop per light type, so each stays short and branch-free; the light's parameters are
     read into locals first (loads from the light arrays inside the loop would have to be
     repeated, as the compiler cannot rule out that the stores change them, and do not vectorise)."""
-    kind, lpos, ldir, lrad, cos_out, spot_scale, ang, lum = analytic
+    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
     r0, r1, r2 = lrad[k, 0], lrad[k, 1], lrad[k, 2]
     if kind[k] == 2:
+        ax, ay, az, ca = -ldir[k, 0], -ldir[k, 1], -ldir[k, 2], cos_ang[k]
         for j in range(nb):
-            x, y, z = _sun(k, uniform(keys[j], dim), uniform(keys[j], dim + 1), ldir, ang)
-            _light_ray(j, px, py, pz, nx, ny, nz, gx, gy, gz, eps, x, y, z, far, r0, r1, r2, dx, dy, dz, tm, er, eg,
-                       eb, sc, keep)
+            x, y, z = _sun(ax, ay, az, ca, uniform(keys[j], dim), uniform(keys[j], dim + 1))
+            _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, r0, r1, r2, dx, dy, dz, dd, er, eg, eb)
         return
     qx, qy, qz, sx, sy, sz = lpos[k, 0], lpos[k, 1], lpos[k, 2], ldir[k, 0], ldir[k, 1], ldir[k, 2]
     co, ss = (cos_out[k], spot_scale[k]) if kind[k] == 1 else (F(-2.0), ONE)  # a point light's cone is never cut
@@ -204,8 +199,8 @@ def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, e
         x, y, z = vx * inv, vy * inv, vz * inv
         t = min(max((-(x * sx + y * sy + z * sz) - co) * ss, ZERO), ONE)  # glTF's squared linear ramp
         att = inv * inv * t * t
-        _light_ray(j, px, py, pz, nx, ny, nz, gx, gy, gz, eps, x, y, z, d2 * inv, r0 * att, r1 * att, r2 * att, dx, dy,
-                   dz, tm, er, eg, eb, sc, keep)
+        _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, d2 * inv, r0 * att, r1 * att, r2 * att, dx, dy, dz, dd, er, eg,
+                   eb)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
@@ -213,14 +208,14 @@ def analytic_shadow_rays(k, G, keys, dim, analytic, eps, far, origin, direction,
     """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed;
     returns the count."""
     n = G.shape[1]
-    blk = np.empty((9, RUN), np.float32)
+    blk = np.empty((7, RUN), np.float32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
         _analytic_step(k, G[0, b0:b1], G[1, b0:b1], G[2, b0:b1], G[3, b0:b1], G[4, b0:b1], G[5, b0:b1],
-                       G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, analytic, eps, far,
-                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[8], blk[6], blk[7], b1 - b0)
-        m = _pack(G, b0, b1 - b0, blk, m, origin, direction, tmax, e, idx, True)
+                       G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, analytic, far,
+                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
+        m = _pack(G, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
 
 
@@ -247,8 +242,8 @@ def _emitter(lo, hi, px, py, pz, u0, u1, u2, rows, keep, alias):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, keep_, alias, eps, dx, dy, dz, tm, er,
-                  eg, eb, sc, keep, tri, nb):
+def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, keep, alias, dx, dy, dz, dd, er, eg,
+                  eb, tri, nb):
     """Two loops: the triangle picked for each point (alias method: dependent loads), then the
     rays to points on them."""
     span = F(hi - lo)
@@ -256,7 +251,7 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
         x = uniform(keys[j], dim) * span
         slot = min(int(x), hi - lo - 1)
         t = lo + slot
-        tri[j] = t if (x - F(slot)) < keep_[t] else lo + alias[t]
+        tri[j] = t if (x - F(slot)) < keep[t] else lo + alias[t]
     for j in range(nb):
         key, t = keys[j], tri[j]
         u1, u2 = uniform(key, dim + 1), uniform(key, dim + 2)
@@ -271,23 +266,23 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
         cl = -(rows[t, 9] * x + rows[t, 10] * y + rows[t, 11] * z)
         cl = abs(cl) if rows[t, 15] > ZERO else max(cl, ZERO)
         g = cl * inv * inv
-        _light_ray(j, px, py, pz, nx, ny, nz, gx, gy, gz, eps, x, y, z, d2 * inv * F(1.0 - 1e-4), rows[t, 12] * g,
-                   rows[t, 13] * g, rows[t, 14] * g, dx, dy, dz, tm, er, eg, eb, sc, keep)
+        _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, d2 * inv * F(1.0 - 1e-4), rows[t, 12] * g, rows[t, 13] * g,
+                   rows[t, 14] * g, dx, dy, dz, dd, er, eg, eb)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def cluster_shadow_rays(lo, hi, G, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx):
     """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G, packed."""
     n = G.shape[1]
-    blk = np.empty((9, RUN), np.float32)
+    blk = np.empty((7, RUN), np.float32)
     tri = np.empty(RUN, np.int64)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
         _cluster_step(lo, hi, G[0, b0:b1], G[1, b0:b1], G[2, b0:b1], G[3, b0:b1], G[4, b0:b1], G[5, b0:b1],
-                      G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, rows, keep, alias, eps,
-                      blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[8], blk[6], blk[7], tri, b1 - b0)
-        m = _pack(G, b0, b1 - b0, blk, m, origin, direction, tmax, e, idx, True)
+                      G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, rows, keep, alias,
+                      blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], tri, b1 - b0)
+        m = _pack(G, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
     return m
 
 
@@ -333,14 +328,14 @@ def one_light_shadow_rays(G, keys, dim, analytic, emitters, guide, eps, far, wei
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
     lights); packed. weights: (lights + SCRATCH_ROWS, BLOCK) scratch."""
-    kind, lpos, ldir, lrad, cos_out, spot_scale, ang, lum = analytic
+    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
     start, rows, keep, alias = emitters
     count_analytic = kind.shape[0]
     n_lights = weights.shape[0] - SCRATCH_ROWS
     w = weights[:n_lights]  # weights, then their running sums over the lights
     total, target, pick = weights[-3], weights[-2], weights[-1]
-    blk = np.empty((9, BLOCK), np.float32)
-    dx, dy, dz, tm, er, eg, sc, kp, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], blk[7], blk[8]
+    blk = np.empty((7, BLOCK), np.float32)
+    dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
     m = 0
     for b0 in range(0, G.shape[1], BLOCK):
         b1 = min(b0 + BLOCK, G.shape[1])
@@ -367,7 +362,7 @@ def one_light_shadow_rays(G, keys, dim, analytic, emitters, guide, eps, far, wei
             u1, u2, u3 = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
             if k < count_analytic:
                 if kind[k] == 2:
-                    x, y, z = _sun(k, u1, u2, ldir, ang)
+                    x, y, z = _sun(-ldir[k, 0], -ldir[k, 1], -ldir[k, 2], cos_ang[k], u1, u2)
                     dist, att = far, ONE
                 else:
                     x, y, z, dist, att = _towards(k, px[b], py[b], pz[b], kind[k] == 1, lpos, ldir, cos_out,
@@ -379,9 +374,8 @@ def one_light_shadow_rays(G, keys, dim, analytic, emitters, guide, eps, far, wei
                 x, y, z, dist, ex, ey, ez = _emitter(start[c], start[c + 1], px[b], py[b], pz[b], u1, u2, u3, rows,
                                                      keep, alias)
                 ex, ey, ez = ex * inv, ey * inv, ez * inv
-            _light_ray(b, px, py, pz, nx, ny, nz, gx, gy, gz, eps, x, y, z, dist, ex, ey, ez, dx, dy, dz, tm, er, eg,
-                       eb, sc, kp)
-        m = _pack(G, b0, nb, blk, m, origin, direction, tmax, e, idx, True)
+            _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
+        m = _pack(G, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
 
 

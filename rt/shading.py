@@ -183,7 +183,8 @@ class LightSet:
         if c_tri.size:
             rows[:, 12:15] = np.concatenate(le) * (data.tri_area[c_tri] / c_pmf)[:, None]  # Le x area / pmf
             rows[:, 15] = np.concatenate(double)
-        self.analytic = (kind, pos, d.astype(np.float32), rad, cos_out, self.spot_scale, ang, self.lum)
+        self.analytic = (kind, pos, d.astype(np.float32), rad, cos_out, self.spot_scale, f32(np.cos(ang), (-1,)),
+                         self.lum)  # suns: the cosine of their angular radius
         self.emitters = (np.asarray(start, np.int64), rows,
                          f32(np.concatenate(keep) if keep else [], (-1,)),
                          np.concatenate(alias).astype(np.int32) if alias else np.zeros(0, np.int32))
