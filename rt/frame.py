@@ -79,6 +79,13 @@ class ChunkFrame:
         self.idx = rf.gb.index[c]
 
     @property
+    def soa(self) -> tuple[np.ndarray, int]:
+        """These points as the ray generators read them (Surface.soa): the G-buffer's rows,
+        from this chunk's first column."""
+        gb = self.frame.gb
+        return (gb.soa, self.c.start) if gb.soa is not None else self.s.soa("chunk.soa")
+
+    @property
     def view(self) -> np.ndarray:
         """(M,3) unit directions from the eye to these pixels' surfaces."""
         return self.frame.gb.view_dir[self.idx]

@@ -19,6 +19,7 @@ class CpuGBuffer:
     index: np.ndarray  # (M,) pixel ids of covered pixels
     surface: Surface  # (M,) primary hits
     depth: np.ndarray  # (N,) linear depth, 0 where uncovered
+    soa: np.ndarray | None = None  # (9, M) the surface's p, n, ng as rows (Surface.soa), for the ray generators
 
     @property
     def n(self) -> int:
@@ -49,11 +50,12 @@ def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = Fal
     view = new("view", (n, 3))
     depth = new("depth", (n,))
     covered = new("covered", (n,), np.bool_)
+    soa = new("soa", (9, m))
     r, u, f = (x.astype(np.float64) for x in camera.basis())
     unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx, row_start,
                    camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
-                   s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth, covered)
-    return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth)
+                   s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth, covered, soa)
+    return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth, soa)
 
 
 def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
@@ -74,4 +76,5 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
     depth.fill(0)
     depth[idx] = hits.t[idx] * (d[idx] @ f.astype(np.float32))
-    return CpuGBuffer(width, height, camera.eye.astype(np.float32), d, covered, idx, s, depth)
+    soa = s.soa("gbuffer.rt.soa" if reuse else None)[0]
+    return CpuGBuffer(width, height, camera.eye.astype(np.float32), d, covered, idx, s, depth, soa)

@@ -35,7 +35,7 @@ def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0, 
     out.fill(0)
     o, d, _, owner = scratch.rays(name, n)
     G = s.soa(name + ".soa") if G is None else G
-    m = raygen.hemisphere_live(G, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
+    m = raygen.hemisphere_live(*G, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
     hits = cf.tracer.intersect(o[:m], d[:m])  # rays below the true surface carry nothing
     sel = scratch.buffer(name + ".sel", (m,), np.int64)
     k = gather.split_hits(hits.prim, m, d, owner, out, *gather.env_args(cf.environment), sel)
@@ -76,7 +76,7 @@ class GIPass:
 
         def work(cf):
             s, rng = cf.s, cf.rng(4)
-            G = s.soa("gi.soa")
+            G = cf.soa
             direct = direct_one(cf.data, cf.tracer, s, rng, shadowed, out=scratch.buffer("gi.direct", (len(s), 3)), G=G)
             indirect = indirect_light(cf, s, rng, G)
             gather.write_lit(out, cf.idx, s.emissive, s.albedo, direct, indirect, False)

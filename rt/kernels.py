@@ -187,11 +187,12 @@ def _octahedral(word):
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, up, fwd, tan_half,
-                   P, N, NG, albedo, rough, metal, emis, view_dir, depth, covered):
+                   P, N, NG, albedo, rough, metal, emis, view_dir, depth, covered, G):
     """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
     word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions,
     linear depths and coverage, top row first. Positions come back from the pixel's ray and
-    depth. Row by row (idx and row_start from covered_pixels): no division per pixel."""
+    depth. Row by row (idx and row_start from covered_pixels): no division per pixel. G (9, M):
+    p, n and ng again as rows, what the ray generators read (rt/raygen.py: surface_soa)."""
     height, width = geometry.shape[0], geometry.shape[1]
     aspect = width / height
     for y in prange(height):
@@ -218,9 +219,14 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
             dx = right[0] * sx + up[0] * sy + fwd[0]
             dy = right[1] * sx + up[1] * sy + fwd[1]
             dz = right[2] * sx + up[2] * sy + fwd[2]
-            P[j, 0], P[j, 1], P[j, 2] = eye[0] + dx * d, eye[1] + dy * d, eye[2] + dz * d
-            N[j, 0], N[j, 1], N[j, 2] = _octahedral(geometry[r, x, 1])
-            NG[j, 0], NG[j, 1], NG[j, 2] = _octahedral(geometry[r, x, 2])
+            px, py, pz = eye[0] + dx * d, eye[1] + dy * d, eye[2] + dz * d
+            nx, ny, nz = _octahedral(geometry[r, x, 1])
+            gx, gy, gz = _octahedral(geometry[r, x, 2])
+            P[j, 0], P[j, 1], P[j, 2] = px, py, pz
+            N[j, 0], N[j, 1], N[j, 2] = nx, ny, nz
+            NG[j, 0], NG[j, 1], NG[j, 2] = gx, gy, gz
+            G[0, j], G[1, j], G[2, j], G[3, j], G[4, j], G[5, j] = px, py, pz, nx, ny, nz
+            G[6, j], G[7, j], G[8, j] = gx, gy, gz
             c = geometry[r, x, 3]
             for a in range(3):
                 albedo[j, a] = np.float32((c >> (8 * a)) & 0xFF) * np.float32(1 / 255)

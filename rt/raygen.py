@@ -1,13 +1,15 @@
 """Fused ray generators for the tracing threads: sample, build and pack the rays of a chunk,
 in float32, writing only the rays worth tracing.
 
-Points come as structure-of-arrays rows (`surface_soa`: px, py, pz, nx, ny, nz, gx, gy, gz):
-each generator walks them in steps of RUN points; a loop over unit-stride rows computes the
-step's rays into a small block (it vectorises; over (n, 3) arrays it did not, 14 vs 2.5 ns a
-point for AO rays on the 2-core machine), then a short serial loop packs those that carry
-something: origins, directions, tmax and the light they carry come out packed in front of the
-buffers, with `idx[j]` the point ray j belongs to, and the count is returned. The packed
-buffers go to Embree as they are. Serial and GIL-free: one call per chunk per thread.
+Points come as structure-of-arrays rows (`surface_soa`: px, py, pz, nx, ny, nz, gx, gy, gz),
+columns g0 to g0 + len(keys) of G: a chunk of the G-buffer's rows (the unpack writes them) or
+a whole Surface.soa(); `idx` counts from g0. Each generator walks the points in steps of RUN:
+a loop over unit-stride rows computes the step's rays into a small block (it vectorises; over
+(n, 3) arrays it did not: 14 vs 2.5 ns a point for AO rays on the 2-core machine), then a
+short serial loop packs those that carry something: origins, directions, tmax and the light
+they carry come out packed in front of the buffers, with `idx[j]` the point ray j belongs to,
+and the count is returned. The packed buffers go to Embree as they are. Serial and GIL-free:
+one call per chunk per thread.
 
 sin/cos come from a short polynomial (`sin_turns`), which vectorises where libm's does not and
 is accurate to 4e-7, far below the sampling noise.
@@ -69,7 +71,7 @@ def surface_soa(P, N, NG, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _pack(G, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light):
+def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light):
     """Append the step's rays that carry something, in order: origin p + ng x offset, direction
     (blk rows 0-2), and the point's index; for light rays (`light`) tmax from the distance in
     row 3, stopping short of the light, and the light carried (rows 4-6), kept where it is not
@@ -78,11 +80,11 @@ def _pack(G, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, l
     this loop: fewer output rows let them vectorise.)"""
     for j in range(nb):
         i = b0 + j
-        px, py, pz = G[0, i], G[1, i], G[2, i]
+        px, py, pz = G[0, g0 + i], G[1, g0 + i], G[2, g0 + i]
         s = offset(eps, px, py, pz)
-        origin[m, 0] = px + G[6, i] * s
-        origin[m, 1] = py + G[7, i] * s
-        origin[m, 2] = pz + G[8, i] * s
+        origin[m, 0] = px + G[6, g0 + i] * s
+        origin[m, 1] = py + G[7, g0 + i] * s
+        origin[m, 2] = pz + G[8, g0 + i] * s
         direction[m, 0], direction[m, 1], direction[m, 2] = blk[0, j], blk[1, j], blk[2, j]
         idx[m] = i
         if light:
@@ -119,17 +121,18 @@ def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def hemisphere_live(G, keys, dim, eps, tmax_value, origin, direction, tmax, idx):
+def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, idx):
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
     those above the true surface. Returns the count."""
-    n = G.shape[1]
+    n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        _hemisphere_step(G[3, b0:b1], G[4, b0:b1], G[5, b0:b1], G[6, b0:b1], G[7, b0:b1], G[8, b0:b1],
+        c0, c1 = g0 + b0, g0 + b1  # columns of G
+        _hemisphere_step(G[3, c0:c1], G[4, c0:c1], G[5, c0:c1], G[6, c0:c1], G[7, c0:c1], G[8, c0:c1],
                          keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
-        m = _pack(G, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
+        m = _pack(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
     return m
 
 
@@ -204,18 +207,19 @@ def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, f
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def analytic_shadow_rays(k, G, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx):
+def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx):
     """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed;
     returns the count."""
-    n = G.shape[1]
+    n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        _analytic_step(k, G[0, b0:b1], G[1, b0:b1], G[2, b0:b1], G[3, b0:b1], G[4, b0:b1], G[5, b0:b1],
-                       G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, analytic, far,
+        c0, c1 = g0 + b0, g0 + b1  # columns of G
+        _analytic_step(k, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
+                       G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, analytic, far,
                        blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        m = _pack(G, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
+        m = _pack(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
 
 
@@ -271,18 +275,19 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def cluster_shadow_rays(lo, hi, G, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx):
+def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx):
     """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G, packed."""
-    n = G.shape[1]
+    n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     tri = np.empty(RUN, np.int64)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        _cluster_step(lo, hi, G[0, b0:b1], G[1, b0:b1], G[2, b0:b1], G[3, b0:b1], G[4, b0:b1], G[5, b0:b1],
-                      G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1], dim, rows, keep, alias,
+        c0, c1 = g0 + b0, g0 + b1  # columns of G
+        _cluster_step(lo, hi, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
+                      G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, rows, keep, alias,
                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], tri, b1 - b0)
-        m = _pack(G, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
+        m = _pack(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
     return m
 
 
@@ -324,7 +329,8 @@ def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def one_light_shadow_rays(G, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax, e, idx):
+def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
+                          e, idx):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
     lights); packed. weights: (lights + SCRATCH_ROWS, BLOCK) scratch."""
@@ -337,11 +343,13 @@ def one_light_shadow_rays(G, keys, dim, analytic, emitters, guide, eps, far, wei
     blk = np.empty((7, BLOCK), np.float32)
     dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
     m = 0
-    for b0 in range(0, G.shape[1], BLOCK):
-        b1 = min(b0 + BLOCK, G.shape[1])
+    n = keys.shape[0]
+    for b0 in range(0, n, BLOCK):
+        b1 = min(b0 + BLOCK, n)
+        c0, c1 = g0 + b0, g0 + b1  # columns of G
         nb = b1 - b0
-        px, py, pz, nx, ny, nz = G[0, b0:b1], G[1, b0:b1], G[2, b0:b1], G[3, b0:b1], G[4, b0:b1], G[5, b0:b1]
-        gx, gy, gz, bkeys = G[6, b0:b1], G[7, b0:b1], G[8, b0:b1], keys[b0:b1]
+        px, py, pz, nx, ny, nz = G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1]
+        gx, gy, gz, bkeys = G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1]
         _light_weights(px, py, pz, nx, ny, nz, nb, guide, w)
         for k in range(1, n_lights):  # running sums, a light at a time across the block
             for i in range(nb):
@@ -375,7 +383,7 @@ def one_light_shadow_rays(G, keys, dim, analytic, emitters, guide, eps, far, wei
                                                      keep, alias)
                 ex, ey, ez = ex * inv, ey * inv, ez * inv
             _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
-        m = _pack(G, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
+        m = _pack(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
 
 

@@ -42,12 +42,13 @@ class Surface:
     def __len__(self) -> int:
         return self.p.shape[0]
 
-    def soa(self, name: str | None = None) -> np.ndarray:
-        """(9, n) rows px, py, pz, nx, ny, nz, ngx, ngy, ngz: what the ray generators read
-        (rt/raygen.py); in this thread's scratch buffer `name` when given."""
+    def soa(self, name: str | None = None) -> tuple[np.ndarray, int]:
+        """What the ray generators read (rt/raygen.py): (rows, first column), the rows (9, n)
+        px, py, pz, nx, ny, nz, ngx, ngy, ngz, from column 0; in this thread's scratch buffer
+        `name` when given."""
         out = np.empty((9, len(self)), np.float32) if name is None else scratch.buffer(name, (9, len(self)))
         raygen.surface_soa(self.p, self.n, self.ng, out)
-        return out
+        return out, 0
 
 
 def empty_surface(n: int, name: str | None = None) -> Surface:
@@ -198,22 +199,22 @@ class LightSet:
                       col(self.cluster_radius), col(self.cluster_power))
         self.data = data
 
-    def rays(self, k: int, G: np.ndarray, keys, dim: int, origin, direction, tmax, e, idx) -> int:
-        """Shadow rays to light k from points G (Surface.soa), packed (rt/raygen.py); returns
-        their count."""
+    def rays(self, k: int, G, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+        """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
+        (rt/raygen.py); returns their count."""
         eps, far = self.data.eps, self.data.far
         out = (origin, direction, tmax, e, idx)
         if k < self.count_analytic:
-            return raygen.analytic_shadow_rays(k, G, keys, dim, self.analytic, eps, far, *out)
+            return raygen.analytic_shadow_rays(k, *G, keys, dim, self.analytic, eps, far, *out)
         start, rows, keep, alias = self.emitters
         j = k - self.count_analytic
-        return raygen.cluster_shadow_rays(start[j], start[j + 1], G, keys, dim, rows, keep, alias, eps, *out)
+        return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, eps, *out)
 
-    def one_rays(self, G: np.ndarray, keys, dim: int, origin, direction, tmax, e, idx) -> int:
-        """One shadow ray per point of G (Surface.soa) to a light picked by its estimated
-        contribution, packed."""
+    def one_rays(self, G, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+        """One shadow ray per point of G = (rows, first column) (Surface.soa) to a light picked
+        by its estimated contribution, packed."""
         weights = scratch.buffer("light.w", (self.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
-        return raygen.one_light_shadow_rays(G, keys, dim, self.analytic, self.emitters, self.guide, self.data.eps,
+        return raygen.one_light_shadow_rays(*G, keys, dim, self.analytic, self.emitters, self.guide, self.data.eps,
                                             self.data.far, weights, origin, direction, tmax, e, idx)
 
     @property

@@ -25,7 +25,7 @@ def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
     this thread's next call)."""
     estimator = direct_all if cf.options.get("shadows.lights") == "all" else direct_one
     out = scratch.buffer("shadows.direct", (len(cf.s), 3))
-    return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed, out=out)
+    return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed, out=out, G=cf.soa)
 
 
 class ShadowsPass:

@@ -199,6 +199,36 @@ def test_packed_gbuffer_matches_float_targets(gl):
     assert np.abs(s.metallic - ch["g_albedo"][i, 3]).max() <= 0.5 / 255 + 1e-6
     assert np.abs(s.roughness - ch["g_normal"][i, 3]).max() < 1e-3
     assert np.allclose(s.emissive, ch["g_emissive"][i, :3], rtol=1e-3, atol=1e-4)
+    assert np.array_equal(gb.soa, s.soa()[0])  # the rows the ray generators read
+    r.release()
+
+
+@pytest.mark.parametrize("name", ["cafe", "temple", "street"])
+def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
+    """Rays from columns g0.. of the G-buffer's rows are those from the chunk's own points, for
+    every kind of light and for cosine rays (cafe: emissive clusters; temple: point lights;
+    street: the sun)."""
+    from rt import raygen, scratch
+    from rt.gbuffer import from_raster
+    from rt.sampling import PixelRng
+
+    r, cam, job = prepared_frame(gl, name)
+    gb = from_raster(job.readback, cam, 96, 54)
+    data = r.ray_tracing().data
+    lo, hi = len(gb.index) // 3, len(gb.index) // 3 + 1000  # 1000: not a whole number of steps
+    keys = PixelRng(0, 0, gb.index[lo:hi], 1).key
+    own = gb.surface.take(slice(lo, hi)).soa()
+    for k in range(data.lights.count):
+        a, b = scratch.rays("t.a", hi - lo, True), scratch.rays("t.b", hi - lo, True)
+        m = data.lights.rays(k, (gb.soa, lo), keys, 0, a[0], a[1], a[2], a[4], a[3])
+        assert m == data.lights.rays(k, own, keys, 0, b[0], b[1], b[2], b[4], b[3]) and m > 0
+        for x, y in zip(a, b, strict=True):
+            assert np.array_equal(x[:m], y[:m])
+    a, b = scratch.rays("t.a", hi - lo), scratch.rays("t.b", hi - lo)
+    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, data.eps, np.float32(1.0), *a)
+    assert m == raygen.hemisphere_live(*own, keys, 0, data.eps, np.float32(1.0), *b) and m > 500
+    for x, y in zip(a, b, strict=True):
+        assert np.array_equal(x[:m], y[:m])
     r.release()
 
 
