@@ -54,5 +54,5 @@ class AOPass:
         def work(cf):
             gather.write_ao(out, ao_image, cf.idx, ambient_occlusion(cf), rays, cf.s.albedo, grey)
 
-        rf.for_chunks(work)
+        rf.for_chunks(work, streams=(2,))
         return {"radiance": out, "rt_ao": ao_image}

@@ -82,5 +82,5 @@ class GIPass:
             gather.write_lit(out, cf.idx, s.emissive, s.albedo, direct, indirect, False)
             cf.put(indirect_image, indirect)
 
-        rf.for_chunks(work)
+        rf.for_chunks(work, streams=(4,))
         return {"radiance": out, "rt_indirect": indirect_image}

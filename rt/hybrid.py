@@ -54,8 +54,8 @@ def hybrid_components(rf) -> dict:
         if gi:
             cf.put(out["rt_indirect"], indirect_light(cf, cf.s, cf.rng(6)))
 
-    if out:
-        rf.for_chunks(work)
+    if out:  # the random streams of direct_irradiance, ambient_occlusion, reflect and this GI
+        rf.for_chunks(work, streams=tuple(s for s, on in ((1, shadows), (2, ao), (3, reflections), (6, gi)) if on))
     return out
 
 

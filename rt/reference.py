@@ -77,5 +77,5 @@ class ReferencePass:
     def execute(self, rf) -> dict:
         out = rf.background()
         bounces, rr = rf.options.get("reference.max_bounces"), rf.options.get("reference.rr_start")
-        rf.for_chunks(lambda cf: cf.put(out, trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr)))
+        rf.for_chunks(lambda cf: cf.put(out, trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr)), streams=(5,))
         return {"radiance": out}

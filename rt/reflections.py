@@ -96,5 +96,5 @@ class ReflectionsPass:
             cf.put(out, local)
             cf.put(reflection_image, reflection)
 
-        rf.for_chunks(work)
+        rf.for_chunks(work, streams=(3,))
         return {"radiance": out, "rt_reflection": reflection_image}

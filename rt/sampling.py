@@ -55,6 +55,13 @@ class PixelRng:
             uniforms(self.key, first, k, out)
         return out
 
+    @classmethod
+    def of_keys(cls, keys: np.ndarray) -> PixelRng:
+        """Generators with the given keys (from another PixelRng's), counting dimensions from 0."""
+        r = cls.__new__(cls)
+        r.key, r._dim = keys, [0]
+        return r
+
     def with_keys(self, keys: np.ndarray) -> PixelRng:
         """Generators with the given keys (gathered from this one's), sharing its dimensions."""
         r = PixelRng.__new__(PixelRng)

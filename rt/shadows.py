@@ -45,5 +45,5 @@ class ShadowsPass:
             gather.write_lit(out, cf.idx, cf.s.emissive, cf.s.albedo, e, None, grey)
             cf.put(direct, e)
 
-        rf.for_chunks(work)
+        rf.for_chunks(work, streams=(1,))
         return {"radiance": out, "rt_direct": direct}

@@ -136,11 +136,15 @@ class EmbreeTracer(Tracer):
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(dirs, np.float32)
         n = o.shape[0]
-        dist = np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)), np.float32).copy()
+        # embreex reads dists for occlusion queries and leaves them as they are (checked), so
+        # a float32 array passes through uncopied: ray buffers are large and fresh copies of
+        # them cost page faults, which threads queue for
+        dist = np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)) if np.ndim(tmax) == 0 else tmax,
+                                    np.float32)
         out = np.empty(n, bool)
 
         def work(c: slice):
-            out[c] = self.scene.run(o[c], d[c], dists=dist[c].copy(), query="OCCLUDED") >= 0
+            out[c] = self.scene.run(o[c], d[c], dists=dist[c], query="OCCLUDED") >= 0
 
         if self.recording is not None:
             self.recording.append(("occluded" + self._kind_suffix, o.copy(), d.copy(), dist.copy()))
