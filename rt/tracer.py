@@ -237,8 +237,8 @@ class EmbreeTracer(Tracer):
         chunked = [b for b in batches if b[0].endswith("_chunk")]  # traced one batch per task, as recorded
 
         def run(b):
-            if b[0].startswith("occluded"):
-                return self.scene.run(b[1], b[2], dists=b[3].copy(), query="OCCLUDED")
+            if b[0].startswith("occluded"):  # embreex leaves occlusion distances as they are
+                return self.scene.run(b[1], b[2], dists=b[3], query="OCCLUDED")
             return self.scene.run(b[1], b[2], dists=None if b[3] is None else b[3].copy(), output=1)
 
         if chunked:
@@ -249,8 +249,7 @@ class EmbreeTracer(Tracer):
                 self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=None if t is None
                                                                      else t[c].copy(), output=1), n)
             else:
-                self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=t[c].copy(),
-                                                                     query="OCCLUDED"), n)
+                self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=t[c], query="OCCLUDED"), n)
         return time.perf_counter() - t0
 
     def set_threads(self, threads: int) -> None:
