@@ -108,8 +108,9 @@ class ChunkFrame:
         return self.frame.gb.view_dir[self.idx]
 
     def rng(self, stream: int) -> PixelRng:
-        """As RtFrame.rng, for this chunk's pixels; its keys live in this thread's scratch
-        buffer for the stream (valid until the thread's next chunk)."""
+        """As RtFrame.rng, for this chunk's pixels: its part of the frame's keys when for_chunks
+        made them for this stream, else keys made here in this thread's scratch buffer for the
+        stream (valid until the thread's next chunk)."""
         from rt import scratch
 
         made = self.frame.keys.get(stream)
