@@ -305,3 +305,28 @@ def test_reused_gbuffer_matches_a_fresh_one_and_keeps_its_memory(gl):
     again = from_raster(job.readback, cam, 96, 54, reuse=True)
     assert np.shares_memory(again.surface.p, reused.surface.p) and np.shares_memory(again.view_dir, reused.view_dir)
     r.release()
+
+
+def test_frame_keys_are_each_chunks_own(gl):
+    """Keys made for the whole frame (for_chunks' streams) are, chunk by chunk, those the chunk
+    would make itself, so naming a stream changes no image."""
+    from rt.frame import RtFrame
+    from rt.gbuffer import from_raster
+    from rt.sampling import PixelRng
+
+    r, cam, job = prepared_frame(gl, "arcade")
+    rt = r.ray_tracing()
+    rt.tracer.set_threads(3)
+    rt.tracer.min_chunk = 256  # several chunks on a small image
+    gb = from_raster(job.readback, cam, 96, 54)
+    rf = RtFrame(rt.data, rt.tracer, gb, r.environment(), r.options, seed=7, index=3, buffers={})
+    seen = {}
+
+    def work(cf):
+        seen[cf.c.start] = (cf.c, cf.rng(2).key.copy(), cf.rng(2).dim)
+
+    rf.for_chunks(work, streams=(2,))
+    assert len(seen) > 1 and 2 in rf.keys
+    for c, keys, dim in seen.values():
+        assert np.array_equal(keys, PixelRng(7, 3, gb.index[c], 2).key) and dim == 0
+    r.release()
