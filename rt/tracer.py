@@ -2,8 +2,8 @@
 
 Passes only see `Tracer`: closest hits and occlusion on whole float32 ray arrays. A second
 backend (a GPU one, say) implements the same two methods without touching the passes.
-Embree's `rtcIntersect1` runs without the GIL inside embreex, so rays are split into chunks
-and traced on a thread pool.
+Embree is called from compiled code without the GIL (rt/embree.py), so rays are split into
+chunks and traced on a thread pool.
 """
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rt import embree
 from rt.kernels import serial_kernels
 
 INF = np.float32(1e30)
@@ -63,12 +64,8 @@ class EmbreeTracer(Tracer):
     # busy when some chunks are cheap (sky rays) without per-call overhead from tiny chunks.
     def __init__(self, positions: np.ndarray, indices: np.ndarray, threads: int | None = None,
                  chunks_per_thread: int = 4, min_chunk: int = 4096):
-        from embreex import rtcore_scene as rtcs
-        from embreex.mesh_construction import TriangleMesh
-
-        self.scene = rtcs.EmbreeScene()
-        self._mesh = TriangleMesh(self.scene, np.ascontiguousarray(positions, np.float32),
-                                  np.ascontiguousarray(indices, np.int32))
+        self.scene = embree.EmbreeScene(positions, indices)  # the BVH is built here
+        self.handle = self.scene.handle
         self.threads = threads or default_threads()
         self.chunks_per_thread = chunks_per_thread
         self.min_chunk = min_chunk
@@ -80,8 +77,6 @@ class EmbreeTracer(Tracer):
         self.recording: list | None = None  # set to [] to keep every ray batch (bench --perf replays them)
         self._kind_suffix = ""  # "_chunk" on the serial views that chunk workers trace with
         self._costs: dict = {}  # map_chunks key -> its cost profile (cost_profile)
-        # commit (build the BVH) now rather than inside the first frame
-        self.scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), query="OCCLUDED")
 
     def _chunk_count(self, n: int, per_thread: int | None = None) -> int:
         return max(1, min(self.threads * (per_thread or self.chunks_per_thread), n // self.min_chunk))
@@ -103,32 +98,15 @@ class EmbreeTracer(Tracer):
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(dirs, np.float32)
         n = o.shape[0]
-        if self.pool is None and n:  # one call, Embree's own result arrays
-            dist = None if tmax is None else np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)), np.float32)
-            if self.recording is not None:
-                self.recording.append(("intersect" + self._kind_suffix, o.copy(), d.copy(),
-                                       None if dist is None else dist.copy()))
-            r = self.scene.run(o, d, dists=None if dist is None else dist.copy(), output=1)
-            t, prim = r["tfar"], r["primID"]
-            t[prim < 0] = INF
-            self.rays_traced += n
-            return Hits(t, prim, r["u"], r["v"])
+        dist = _distances(INF if tmax is None else tmax, n)
         t = np.empty(n, np.float32)
         prim = np.empty(n, np.int32)
         u = np.empty(n, np.float32)
         v = np.empty(n, np.float32)
-        dist = None if tmax is None else np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)), np.float32)
-
-        def work(c: slice):
-            r = self.scene.run(o[c], d[c], dists=None if dist is None else dist[c].copy(), output=1)
-            t[c], prim[c], u[c], v[c] = r["tfar"], r["primID"], r["u"], r["v"]
-
         if self.recording is not None:
-            self.recording.append(("intersect" + self._kind_suffix, o.copy(), d.copy(),
-                                   None if dist is None else dist.copy()))
+            self.recording.append(("intersect" + self._kind_suffix, o.copy(), d.copy(), dist.copy()))
         if n:
-            self._map(work, n)
-        t[prim < 0] = INF
+            self._map(lambda c: embree.intersect(self.handle, o[c], d[c], dist[c], t[c], prim[c], u[c], v[c]), n)
         self.rays_traced += n
         return Hits(t, prim, u, v)
 
@@ -136,20 +114,12 @@ class EmbreeTracer(Tracer):
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(dirs, np.float32)
         n = o.shape[0]
-        # embreex reads dists for occlusion queries and leaves them as they are (checked), so
-        # a float32 array passes through uncopied: ray buffers are large and fresh copies of
-        # them cost page faults, which threads queue for
-        dist = np.ascontiguousarray(np.broadcast_to(np.float32(tmax), (n,)) if np.ndim(tmax) == 0 else tmax,
-                                    np.float32)
+        dist = _distances(tmax, n)
         out = np.empty(n, bool)
-
-        def work(c: slice):
-            out[c] = self.scene.run(o[c], d[c], dists=dist[c], query="OCCLUDED") >= 0
-
         if self.recording is not None:
             self.recording.append(("occluded" + self._kind_suffix, o.copy(), d.copy(), dist.copy()))
         if n:
-            self._map(work, n)
+            self._map(lambda c: embree.occluded(self.handle, o[c], d[c], dist[c], out[c]), n)
         self.rays_traced += n
         return out
 
@@ -231,25 +201,32 @@ class EmbreeTracer(Tracer):
         return bounds
 
     def replay(self, batches: list) -> float:
-        """Trace recorded batches again, embreex alone with the same chunking and threads;
-        returns the seconds spent (the pass's physical limit)."""
+        """Trace recorded batches again, Embree alone with the same chunking and threads (no
+        sampling or shading); returns the seconds spent (the pass's physical limit)."""
+        outputs = [_outputs(b) for b in batches]  # allocated before the clock starts, as a pass's scratch is
         t0 = time.perf_counter()
-        chunked = [b for b in batches if b[0].endswith("_chunk")]  # traced one batch per task, as recorded
 
-        def run(b):
-            if b[0].startswith("occluded"):  # embreex leaves occlusion distances as they are
-                return self.scene.run(b[1], b[2], dists=b[3], query="OCCLUDED")
-            return self.scene.run(b[1], b[2], dists=None if b[3] is None else b[3].copy(), output=1)
-
-        if chunked:
-            list(self.pool.map(run, chunked)) if self.pool is not None else [run(b) for b in chunked]
-        for kind, o, d, dist in (b for b in batches if not b[0].endswith("_chunk")):
-            n = o.shape[0]
-            if kind == "intersect":
-                self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=None if t is None
-                                                                     else t[c].copy(), output=1), n)
+        def run(k):
+            kind, o, d, dist = batches[k]
+            out = outputs[k]
+            if kind.startswith("occluded"):
+                embree.occluded(self.handle, o, d, dist, out[0])
             else:
-                self._map(lambda c, o=o, d=d, t=dist: self.scene.run(o[c], d[c], dists=t[c], query="OCCLUDED"), n)
+                embree.intersect(self.handle, o, d, dist, *out)
+
+        keyed = [k for k, b in enumerate(batches) if b[0].endswith("_chunk")]  # one batch per task, as recorded
+        if keyed:
+            list(self.pool.map(run, keyed)) if self.pool is not None else [run(k) for k in keyed]
+        for k, (kind, o, d, dist) in enumerate(batches):
+            if kind.endswith("_chunk"):
+                continue
+            out = outputs[k]
+            if kind == "intersect":
+                self._map(lambda c, o=o, d=d, t=dist, out=out: embree.intersect(
+                    self.handle, o[c], d[c], t[c], *(a[c] for a in out)), o.shape[0])
+            else:
+                self._map(lambda c, o=o, d=d, t=dist, out=out: embree.occluded(
+                    self.handle, o[c], d[c], t[c], out[0][c]), o.shape[0])
         return time.perf_counter() - t0
 
     def set_threads(self, threads: int) -> None:
@@ -261,3 +238,19 @@ class EmbreeTracer(Tracer):
     def close(self) -> None:
         if self.pool is not None:
             self.pool.shutdown(wait=False)
+        self.scene.close()
+
+
+def _distances(tmax, n: int) -> np.ndarray:
+    """tmax as an (n,) float32 array, the caller's own if it already is one (Embree only reads it)."""
+    if np.ndim(tmax) == 0:
+        return np.full(n, np.float32(tmax), np.float32)
+    return np.ascontiguousarray(tmax, np.float32)
+
+
+def _outputs(batch) -> tuple:
+    """Result arrays for a recorded batch: (blocked,) or (t, prim, u, v)."""
+    n = batch[1].shape[0]
+    if batch[0].startswith("occluded"):
+        return (np.empty(n, bool),)
+    return np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.float32), np.empty(n, np.float32)

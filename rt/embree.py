@@ -1,0 +1,180 @@
+"""Embree's C API, called directly: scene building from Python (ctypes), ray queries from
+compiled code (numba).
+
+embreex ships libembree4 but its `run` takes whole arrays and returns fresh ones, so every
+call costs Python work under the GIL and allocations (an intersect call makes six output
+arrays). Here a ray query is a plain call of `rtcOccluded1` / `rtcIntersect1` from a numba
+kernel that runs without the GIL: a chunk's tracing is one GIL-free call writing into the
+caller's arrays, and kernels may trace rays as they make them. The library is embreex's own
+copy, so the BVH and traversal are the same Embree 4 as before.
+
+Layouts follow embree4/rtcore_ray.h: RTCRay is 12 words (org, tnear, dir, time, tfar, mask,
+id, flags), RTCHit follows it (Ng, u, v, primID, geomID, instID), 16-byte aligned.
+"""
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+
+import numpy as np
+from llvmlite import binding as llvm
+from numba import njit, types
+
+from app.errors import UserError
+
+INVALID = np.uint32(0xFFFFFFFF)
+MISS_T = np.float32(1e30)  # t of a ray that hit nothing (rt.tracer.INF)
+GEOMETRY_TRIANGLE, BUFFER_INDEX, BUFFER_VERTEX = 0, 0, 1
+FORMAT_UINT3, FORMAT_FLOAT3 = 0x5003, 0x9003
+SCENE_FLAG_ROBUST = 1 << 2
+RAYHIT_WORDS = 32  # RTCRayHit (at most 28 words with instance ids) rounded up, plus room to align
+
+
+def library_path() -> str:
+    """libembree4 as shipped in embreex's wheel (embreex.libs), else the system's."""
+    import embreex
+
+    site = os.path.dirname(os.path.dirname(embreex.__file__))
+    found = sorted(glob.glob(os.path.join(site, "embreex.libs", "libembree4*.so*")))
+    if found:
+        return found[0]
+    import ctypes.util
+
+    name = ctypes.util.find_library("embree4")
+    if name is None:
+        raise UserError("libembree4 not found (neither in embreex's wheel nor on the system)")
+    return name
+
+
+def _load():
+    path = library_path()
+    llvm.load_library_permanently(path)  # so that compiled kernels resolve rtc* by name
+    lib = ctypes.CDLL(path)
+    P = ctypes.c_void_p
+    for name, res, args in (("rtcNewDevice", P, [ctypes.c_char_p]), ("rtcReleaseDevice", None, [P]),
+                            ("rtcGetDeviceError", ctypes.c_int, [P]), ("rtcNewScene", P, [P]),
+                            ("rtcReleaseScene", None, [P]), ("rtcCommitScene", None, [P]),
+                            ("rtcSetSceneFlags", None, [P, ctypes.c_int]),
+                            ("rtcNewGeometry", P, [P, ctypes.c_int]),
+                            ("rtcSetNewGeometryBuffer", P, [P, ctypes.c_int, ctypes.c_uint, ctypes.c_int,
+                                                            ctypes.c_size_t, ctypes.c_size_t]),
+                            ("rtcCommitGeometry", None, [P]), ("rtcAttachGeometry", ctypes.c_uint, [P, P]),
+                            ("rtcReleaseGeometry", None, [P])):
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = res, args
+    return lib
+
+
+_lib = _load()
+
+# (scene, ray, arguments): pointers passed as integers, the same registers on x86-64 and arm64
+_occluded1 = types.ExternalFunction("rtcOccluded1", types.void(types.uintp, types.uintp, types.uintp))
+_intersect1 = types.ExternalFunction("rtcIntersect1", types.void(types.uintp, types.uintp, types.uintp))
+
+
+class EmbreeScene:
+    """One triangle mesh, committed (BVH built) on creation; `handle` is the RTCScene that the
+    kernels below take."""
+
+    def __init__(self, positions: np.ndarray, indices: np.ndarray):
+        positions = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
+        indices = np.ascontiguousarray(indices, np.uint32).reshape(-1, 3)
+        self.device = _lib.rtcNewDevice(None)
+        if not self.device:
+            raise UserError("Embree could not create a device")
+        self.scene = _lib.rtcNewScene(self.device)
+        # robust traversal, as embreex's scenes: the same hits as before, to the bit (without it,
+        # rays grazing shared edges and coplanar overlaps resolve differently)
+        _lib.rtcSetSceneFlags(self.scene, SCENE_FLAG_ROBUST)
+        geometry = _lib.rtcNewGeometry(self.device, GEOMETRY_TRIANGLE)
+        # Embree's own buffers (padded as it needs) filled with one copy each
+        vb = _lib.rtcSetNewGeometryBuffer(geometry, BUFFER_VERTEX, 0, FORMAT_FLOAT3, 12, max(len(positions), 1))
+        ib = _lib.rtcSetNewGeometryBuffer(geometry, BUFFER_INDEX, 0, FORMAT_UINT3, 12, len(indices))
+        if len(positions):
+            ctypes.memmove(vb, positions.ctypes.data, positions.nbytes)
+        if len(indices):
+            ctypes.memmove(ib, indices.ctypes.data, indices.nbytes)
+        _lib.rtcCommitGeometry(geometry)
+        _lib.rtcAttachGeometry(self.scene, geometry)
+        _lib.rtcReleaseGeometry(geometry)
+        _lib.rtcCommitScene(self.scene)
+        error = _lib.rtcGetDeviceError(self.device)
+        if error:
+            self.close()
+            raise UserError(f"Embree could not build the scene (error {error})")
+        self.handle = int(self.scene)
+
+    def close(self) -> None:
+        if getattr(self, "scene", None):
+            _lib.rtcReleaseScene(self.scene)
+            self.scene = None
+            self.handle = 0
+        if getattr(self, "device", None):
+            _lib.rtcReleaseDevice(self.device)
+            self.device = None
+
+    def __del__(self):
+        self.close()
+
+
+@njit(cache=True, error_model="numpy")
+def ray_buffer():
+    """A per-call RTCRayHit: the array and the word offset of its 16-byte aligned start."""
+    buf = np.empty(RAYHIT_WORDS, np.float32)
+    return buf, ((16 - buf.ctypes.data % 16) % 16) // 4
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
+    buf[b] = ox
+    buf[b + 1] = oy
+    buf[b + 2] = oz
+    buf[b + 3] = 0.0  # tnear
+    buf[b + 4] = dx
+    buf[b + 5] = dy
+    buf[b + 6] = dz
+    buf[b + 7] = 0.0  # time
+    buf[b + 8] = tmax
+    words[b + 9] = INVALID  # mask: every geometry
+    words[b + 10] = 0  # id
+    words[b + 11] = 0  # flags
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def occluded1(scene, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
+    """True if something lies on the ray within (0, tmax)."""
+    set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax)
+    _occluded1(scene, buf.ctypes.data + 4 * b, 0)
+    return buf[b + 8] < 0.0  # Embree sets tfar to -inf on a hit
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def intersect1(scene, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
+    """The closest hit within (0, tmax): (t, prim, u, v), prim -1 and t MISS_T on a miss."""
+    set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax)
+    words[b + 17] = INVALID  # primID
+    words[b + 18] = INVALID  # geomID
+    _intersect1(scene, buf.ctypes.data + 4 * b, 0)
+    if words[b + 18] == INVALID:
+        return MISS_T, np.int32(-1), np.float32(0.0), np.float32(0.0)
+    return buf[b + 8], np.int32(words[b + 17]), buf[b + 15], buf[b + 16]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def occluded(scene, o, d, tmax, out):
+    """out[i] = ray i is blocked within tmax[i]; o, d (n,3) float32."""
+    buf, b = ray_buffer()
+    words = buf.view(np.uint32)
+    for i in range(o.shape[0]):
+        out[i] = occluded1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def intersect(scene, o, d, tmax, t, prim, u, v):
+    """Closest hits of rays i within tmax[i] into t, prim, u, v (see intersect1)."""
+    buf, b = ray_buffer()
+    words = buf.view(np.uint32)
+    for i in range(o.shape[0]):
+        t[i], prim[i], u[i], v[i] = intersect1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2],
+                                               d[i, 0], d[i, 1], d[i, 2], tmax[i])
