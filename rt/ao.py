@@ -32,8 +32,13 @@ def ambient_occlusion(cf) -> np.ndarray:
     open_count.fill(0)
     o, d, t, idx = scratch.rays("ao", n)
     G = cf.soa
+    scene = cf.tracer.inline_scene()  # traced (and counted) as they are made, or after
+    acc = open_count.reshape(n, 1)
     for _ in range(rays):
-        m = raygen.hemisphere_live(*G, rng.key, rng.reserve(2), cf.data.eps, radius, o, d, t, idx)
+        m = raygen.hemisphere_live(*G, rng.key, rng.reserve(2), cf.data.eps, radius, o, d, t, idx, scene, acc)
+        if scene:
+            cf.tracer.rays_traced += m
+            continue
         blocked = cf.tracer.occluded(o[:m], d[:m], t[:m]) if m else np.zeros(0, np.bool_)
         raygen.add_open(open_count, idx, blocked, m)  # rays below the true surface count as occluded
     return open_count  # of ao.rays_per_pixel

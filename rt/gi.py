@@ -35,7 +35,8 @@ def incoming_indirect(cf, s, rng, bounces: int, shadowed: bool, depth: int = 0, 
     out.fill(0)
     o, d, _, owner = scratch.rays(name, n)
     G = s.soa(name + ".soa") if G is None else G
-    m = raygen.hemisphere_live(*G, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner)
+    m = raygen.hemisphere_live(*G, rng.key, rng.reserve(2), cf.data.eps, cf.data.far, o, d, _, owner, 0,
+                               raygen.NOT_TRACED)
     hits = cf.tracer.intersect(o[:m], d[:m])  # rays below the true surface carry nothing
     sel = scratch.buffer(name + ".sel", (m,), np.int64)
     k = gather.split_hits(hits.prim, m, d, owner, out, *gather.env_args(cf.environment), sel)

@@ -11,6 +11,13 @@ they carry come out packed in front of the buffers, with `idx[j]` the point ray 
 and the count is returned. The packed buffers go to Embree as they are. Serial and GIL-free:
 one call per chunk per thread.
 
+Occlusion rays may instead be traced where they are made: given an Embree scene handle (not
+0), a generator traces each ray of a step as the pack loop would have written it and adds
+what gets through to `acc` (light: acc[i] += the light carried; AO: acc[i, 0] += 1), so that
+a chunk's sampling, tracing and gathering are one call without the GIL, and no ray is
+written out (rt/embree.py; `Tracer.inline_scene` says when a tracer allows it, else the
+caller traces the packed rays). The rays, and so the images, are the same either way.
+
 sin/cos come from a short polynomial (`sin_turns`), which vectorises where libm's does not and
 is accurate to 4e-7, far below the sampling noise.
 """
@@ -21,6 +28,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rt import embree
 from rt.kernels import uniform
 
 F = np.float32
@@ -52,6 +60,7 @@ def offset(eps, px, py, pz):
     return eps * (ONE + max(abs(px), abs(py), abs(pz)) * F(1e-3))
 
 
+NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (0)
 RUN = 256  # points per step: a vectorised loop fills the step's rays, a short serial one packs them
 
 
@@ -99,6 +108,35 @@ def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, id
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, scene, buf, words, b, acc, light):
+    """_pack's rays, traced one by one instead of written out; acc[point] gains what each ray
+    that gets through carries (see _pack and the module notes). Returns how many were traced."""
+    m = 0
+    for j in range(nb):
+        if light:
+            ex, ey, ez = blk[4, j], blk[5, j], blk[6, j]
+            if not max(ex, ey, ez) > ZERO:
+                continue
+        elif not blk[4, j] > ZERO:
+            continue
+        i = b0 + j
+        px, py, pz = G[0, g0 + i], G[1, g0 + i], G[2, g0 + i]
+        s = offset(eps, px, py, pz)
+        t = max(blk[3, j] - TWO * s, s) if light else tmax_value
+        m += 1
+        if embree.occluded1(scene, buf, words, b, px + G[6, g0 + i] * s, py + G[7, g0 + i] * s, pz + G[8, g0 + i] * s,
+                            blk[0, j], blk[1, j], blk[2, j], t):
+            continue
+        if light:
+            acc[i, 0] += ex
+            acc[i, 1] += ey
+            acc[i, 2] += ez
+        else:
+            acc[i, 0] += ONE
+    return m
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def about(nx, ny, nz, x, y, z):
     """(x, y, z) in the orthonormal basis about n (Duff et al. 2017)."""
     sign = ONE if nz >= ZERO else -ONE
@@ -121,18 +159,23 @@ def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, idx):
+def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, idx, scene, acc):
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
-    those above the true surface. Returns the count."""
+    those above the true surface (or, if scene, traces them and counts in acc those that escape). Returns the count."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
+    buf, b = embree.ray_buffer()
+    words = buf.view(np.uint32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
         c0, c1 = g0 + b0, g0 + b1  # columns of G
         _hemisphere_step(G[3, c0:c1], G[4, c0:c1], G[5, c0:c1], G[6, c0:c1], G[7, c0:c1], G[8, c0:c1],
                          keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
-        m = _pack(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
+        if scene:
+            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, tmax_value, scene, buf, words, b, acc, False)
+        else:
+            m = _pack(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
     return m
 
 
@@ -207,11 +250,13 @@ def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, f
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx):
-    """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed;
-    returns the count."""
+def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx, scene, acc):
+    """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed
+    (or traced into acc if scene); returns the count."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
+    buf, b = embree.ray_buffer()
+    words = buf.view(np.uint32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
@@ -219,7 +264,10 @@ def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direct
         _analytic_step(k, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
                        G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, analytic, far,
                        blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        m = _pack(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
+        if scene:
+            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, far, scene, buf, words, b, acc, True)
+        else:
+            m = _pack(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
 
 
@@ -275,11 +323,15 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx):
-    """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G, packed."""
+def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx, scene,
+                        acc):
+    """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G,
+    packed (or traced into acc if scene)."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     tri = np.empty(RUN, np.int64)
+    buf, b = embree.ray_buffer()
+    words = buf.view(np.uint32)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
@@ -287,7 +339,10 @@ def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin
         _cluster_step(lo, hi, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
                       G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, rows, keep, alias,
                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], tri, b1 - b0)
-        m = _pack(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
+        if scene:
+            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, ZERO, scene, buf, words, b, acc, True)
+        else:
+            m = _pack(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
     return m
 
 
@@ -330,10 +385,10 @@ def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w):
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
-                          e, idx):
+                          e, idx, scene, acc):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
-    lights); packed. weights: (lights + SCRATCH_ROWS, BLOCK) scratch."""
+    lights); packed (or traced into acc if scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch."""
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
     start, rows, keep, alias = emitters
     count_analytic = kind.shape[0]
@@ -342,6 +397,8 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
     total, target, pick = weights[-3], weights[-2], weights[-1]
     blk = np.empty((7, BLOCK), np.float32)
     dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
+    buf, rb = embree.ray_buffer()
+    words = buf.view(np.uint32)
     m = 0
     n = keys.shape[0]
     for b0 in range(0, n, BLOCK):
@@ -383,7 +440,10 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
                                                      keep, alias)
                 ex, ey, ez = ex * inv, ey * inv, ez * inv
             _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
-        m = _pack(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
+        if scene:
+            m += _trace_add(G, g0, b0, nb, blk, eps, far, scene, buf, words, rb, acc, True)
+        else:
+            m = _pack(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
 
 

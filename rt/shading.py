@@ -199,23 +199,23 @@ class LightSet:
                       col(self.cluster_radius), col(self.cluster_power))
         self.data = data
 
-    def rays(self, k: int, G, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+    def rays(self, k: int, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0, acc=raygen.NOT_TRACED) -> int:
         """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
-        (rt/raygen.py); returns their count."""
+        (rt/raygen.py), or if scene traced and what gets through added to acc; returns their count."""
         eps, far = self.data.eps, self.data.far
-        out = (origin, direction, tmax, e, idx)
+        out = (origin, direction, tmax, e, idx, scene, acc)
         if k < self.count_analytic:
             return raygen.analytic_shadow_rays(k, *G, keys, dim, self.analytic, eps, far, *out)
         start, rows, keep, alias = self.emitters
         j = k - self.count_analytic
         return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, eps, *out)
 
-    def one_rays(self, G, keys, dim: int, origin, direction, tmax, e, idx) -> int:
+    def one_rays(self, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0, acc=raygen.NOT_TRACED) -> int:
         """One shadow ray per point of G = (rows, first column) (Surface.soa) to a light picked
-        by its estimated contribution, packed."""
+        by its estimated contribution, packed, or if scene traced and added to acc."""
         weights = scratch.buffer("light.w", (self.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
         return raygen.one_light_shadow_rays(*G, keys, dim, self.analytic, self.emitters, self.guide, self.data.eps,
-                                            self.data.far, weights, origin, direction, tmax, e, idx)
+                                            self.data.far, weights, origin, direction, tmax, e, idx, scene, acc)
 
     @property
     def count(self) -> int:
@@ -227,8 +227,12 @@ class LightSet:
         return self.cluster_count > 0
 
 
-def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool) -> None:
-    """total += the light of the first m packed rays that reach their light."""
+def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int) -> None:
+    """total += the light of the first m packed rays that reach their light (added already by
+    their generator if it traced them: scene)."""
+    if scene:
+        tracer.rays_traced += m
+        return
     o, d, t, idx, e = rays
     blocked = tracer.occluded(o[:m], d[:m], t[:m]) if (shadowed and m) else np.zeros(m, np.bool_)
     raygen.add_unblocked(total, idx, e, blocked, m)
@@ -243,10 +247,12 @@ def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     total.fill(0)
     G = s.soa("light.soa") if G is None else G
     rays = scratch.rays("light", n, with_light=True)
+    scene = tracer.inline_scene() if shadowed else 0  # then the generators trace, adding into total
     for k in range(data.lights.count):
         dim = rng.reserve(3)
         o, d, t, idx, e = rays
-        _gather(tracer, total, rays, data.lights.rays(k, G, rng.key, dim, o, d, t, e, idx), shadowed)
+        _gather(tracer, total, rays, data.lights.rays(k, G, rng.key, dim, o, d, t, e, idx, scene, total), shadowed,
+                scene)
     return total
 
 
@@ -264,7 +270,8 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     rays = scratch.rays("light", n, with_light=True)
     o, d, t, idx, e = rays
     G = s.soa("light.soa") if G is None else G
-    _gather(tracer, total, rays, data.lights.one_rays(G, rng.key, dim, o, d, t, e, idx), shadowed)
+    scene = tracer.inline_scene() if shadowed else 0  # then the generator traces, adding into total
+    _gather(tracer, total, rays, data.lights.one_rays(G, rng.key, dim, o, d, t, e, idx, scene, total), shadowed, scene)
     return total
 
 

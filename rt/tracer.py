@@ -45,6 +45,12 @@ class Tracer:
         """(N,) bool: something lies between origin and origin + tmax * dir."""
         raise NotImplementedError
 
+    def inline_scene(self) -> int:
+        """An Embree scene handle with which compiled ray generators may trace their occlusion
+        rays themselves as they make them (rt/raygen.py), or 0: the caller traces them with
+        occluded(). Whoever traces adds to rays_traced."""
+        return 0
+
     def map_chunks(self, n: int, work, key=None) -> None:
         """work(c, tracer) for slices c covering range(n); a backend may run them concurrently,
         each with a tracer to use from its own thread. key names the kind of work (a pass), so
@@ -122,6 +128,11 @@ class EmbreeTracer(Tracer):
             self._map(lambda c: embree.occluded(self.handle, o[c], d[c], dist[c], out[c]), n)
         self.rays_traced += n
         return out
+
+    def inline_scene(self) -> int:
+        # only on a thread's own serial view (in a chunk), where tracing inline loses no
+        # parallelism; and not while rays are recorded (bench --perf replays them)
+        return self.handle if (self.pool is None and self.recording is None) else 0
 
     def serial_view(self) -> EmbreeTracer:
         """The same scene, traced on the calling thread (for code already running in a chunk)."""

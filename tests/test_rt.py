@@ -225,10 +225,53 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
         for x, y in zip(a, b, strict=True):
             assert np.array_equal(x[:m], y[:m])
     a, b = scratch.rays("t.a", hi - lo), scratch.rays("t.b", hi - lo)
-    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, data.eps, np.float32(1.0), *a)
-    assert m == raygen.hemisphere_live(*own, keys, 0, data.eps, np.float32(1.0), *b) and m > 500
+    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, data.eps, np.float32(1.0), *a, 0, raygen.NOT_TRACED)
+    assert m == raygen.hemisphere_live(*own, keys, 0, data.eps, np.float32(1.0), *b, 0, raygen.NOT_TRACED) and m > 500
     for x, y in zip(a, b, strict=True):
         assert np.array_equal(x[:m], y[:m])
+    r.release()
+
+
+@pytest.mark.parametrize("name", ["cafe", "temple", "street"])
+def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
+    """Given a scene handle, generators trace their rays as they make them and add what gets
+    through: the same sums (to the bit) and ray counts as packing, tracing and adding after,
+    for every kind of light, the one-light choice and AO rays."""
+    from rt import raygen, scratch
+    from rt.gbuffer import from_raster
+    from rt.sampling import PixelRng
+
+    r, cam, job = prepared_frame(gl, name)
+    gb = from_raster(job.readback, cam, 96, 54)
+    data, tracer = r.ray_tracing().data, r.ray_tracing().tracer
+    view = tracer.serial_view()
+    assert view.inline_scene() == tracer.handle and tracer.inline_scene() in (0, tracer.handle)
+    n = len(gb.index)
+    keys = PixelRng(3, 0, gb.index, 1).key
+    G = (gb.soa, 0)
+    o, d, t, idx, e = scratch.rays("t.a", n, True)
+
+    def after(m, light):
+        out = np.zeros((n, 3), np.float32)
+        blocked = view.occluded(o[:m], d[:m], t[:m])
+        if light:
+            raygen.add_unblocked(out, idx, e, blocked, m)
+        else:
+            raygen.add_open(out[:, 0], idx, blocked, m)
+        return out
+
+    cases = [(lambda sc, acc, k=k: data.lights.rays(k, G, keys, 0, o, d, t, e, idx, sc, acc), True)
+             for k in range(data.lights.count)]
+    cases.append((lambda sc, acc: data.lights.one_rays(G, keys, 0, o, d, t, e, idx, sc, acc), True))
+    cases.append((lambda sc, acc: raygen.hemisphere_live(*G, keys, 0, data.eps, np.float32(0.7), o, d, t, idx, sc,
+                                                         acc), False))
+    for make, light in cases:
+        m = make(0, raygen.NOT_TRACED)
+        expected = after(m, light)
+        inline = np.zeros((n, 3), np.float32)
+        assert make(view.handle, inline) == m > 0
+        assert np.array_equal(inline, expected)
+        assert 0 < np.count_nonzero(expected[:, 0]) < n or not light  # some light gets through, not all
     r.release()
 
 
