@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 from app.options import opt, register_group
 from rt import gather, raygen, scratch
@@ -44,6 +45,24 @@ def ambient_occlusion(cf) -> np.ndarray:
     return open_count  # of ao.rays_per_pixel
 
 
+@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
+def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, out, ao_image):
+    """The whole AO pass in one call: blocks of points split among workers (raygen.frame_blocks), each
+    sampling, tracing and counting its rays as ambient_occlusion does (the same numbers) and
+    writing its pixels. Returns the rays traced."""
+    n = keys.shape[0]
+    traced = 0
+    for w in prange(workers):
+        for b0, b1 in raygen.frame_blocks(n, w, workers):
+            o, d, t, _, idx = raygen.no_rays()
+            count = np.zeros(b1 - b0, np.float32)
+            acc = count.reshape((b1 - b0, 1))
+            for r in range(rays):
+                traced += raygen.hemisphere_live(G, b0, keys[b0:b1], 2 * r, eps, radius, o, d, t, idx, scene, acc)
+            gather.write_ao(out, ao_image, pix[b0:b1], count, rays, albedo[b0:b1], grey)
+    return traced
+
+
 class AOPass:
     name = "ao"
     reads = ("gbuffer",)
@@ -55,6 +74,13 @@ class AOPass:
     def execute(self, rf) -> dict:
         out, ao_image = rf.background(), rf.image(1, fill=1.0)
         grey, rays = rf.options.get("ao.greyscale"), rf.options.get("ao.rays_per_pixel")
+        scene = rf.tracer.frame_scene()
+        if scene and rf.gb.soa is not None:  # one compiled call: no Python per chunk
+            radius = np.float32(rf.options.get("ao.radius"))
+            rf.tracer.rays_traced += rf.tracer.run_parallel(
+                ao_frame, rf.gb.soa, rf.frame_keys(2), rays, rf.data.eps, radius, scene, rf.gb.index,
+                rf.gb.surface.albedo, grey, out, ao_image)
+            return {"radiance": out, "rt_ao": ao_image}
 
         def work(cf):
             gather.write_ao(out, ao_image, cf.idx, ambient_occlusion(cf), rays, cf.s.albedo, grey)

@@ -49,6 +49,10 @@ class RtFrame:
         self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)),
                                key=getattr(work, "__qualname__", None))
 
+    def frame_keys(self, stream: int) -> np.ndarray:
+        """Every covered pixel's key for a random stream (the keys ChunkFrame.rng hands out)."""
+        return self.keys.setdefault(stream, self._keys(stream))
+
     def _keys(self, stream: int) -> np.ndarray:
         n = len(self.gb.index)
         name = f"keys{stream}"

@@ -218,6 +218,11 @@ class LightSet:
                                             self.data.far, weights, origin, direction, tmax, e, idx, scene, acc)
 
     @property
+    def kernel_args(self) -> tuple:
+        """What raygen.direct_block needs of the lights."""
+        return self.analytic, self.emitters, self.guide, self.count
+
+    @property
     def count(self) -> int:
         """Analytic lights, plus one per emissive cluster."""
         return self.count_analytic + self.cluster_count

@@ -5,9 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 from app.options import opt, register_group
-from rt import gather, scratch
+from rt import gather, raygen, scratch
 from rt.shading import direct_all, direct_one
 
 
@@ -28,6 +29,31 @@ def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
     return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed, out=out, G=cf.soa)
 
 
+@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
+def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive, albedo, grey, out, direct):
+    """The whole shadows pass in one call: blocks of points split among workers (raygen.frame_blocks),
+    each sampling, tracing and adding its shadow rays as direct_all / direct_one do (the same
+    numbers) and writing its pixels. Returns the rays traced."""
+    n = keys.shape[0]
+    traced = 0
+    # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
+    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
+    start, rows, keep, alias = lights[1]
+    lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
+    n_lights = lights[3]
+    for w in prange(workers):
+        ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
+              (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
+        for b0, b1 in raygen.frame_blocks(n, w, workers):
+            total = np.empty((b1 - b0, 3), np.float32)
+            traced += raygen.direct_block(G, b0, keys[b0:b1], ls, one, 0, eps, far, scene, total)
+            gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], total, None, grey)
+            for j in range(b1 - b0):
+                p = pix[b0 + j]
+                direct[p, 0], direct[p, 1], direct[p, 2] = total[j, 0], total[j, 1], total[j, 2]
+    return traced
+
+
 class ShadowsPass:
     name = "shadows"
     reads = ("gbuffer",)
@@ -39,6 +65,14 @@ class ShadowsPass:
     def execute(self, rf) -> dict:
         out, direct = rf.background(), rf.image()
         grey = rf.options.get("shadows.greyscale")
+        scene = rf.tracer.frame_scene()
+        if scene and rf.gb.soa is not None:  # one compiled call: no Python per chunk
+            s, data = rf.gb.surface, rf.data
+            one = rf.options.get("shadows.lights") == "one"
+            rf.tracer.rays_traced += rf.tracer.run_parallel(
+                shadows_frame, rf.gb.soa, rf.frame_keys(1), data.lights.kernel_args, one, data.eps, data.far, scene,
+                rf.gb.index, s.emissive, s.albedo, grey, out, direct)
+            return {"radiance": out, "rt_direct": direct}
 
         def work(cf):
             e = direct_irradiance(cf)

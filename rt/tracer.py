@@ -51,6 +51,19 @@ class Tracer:
         occluded(). Whoever traces adds to rays_traced."""
         return 0
 
+    def frame_scene(self) -> int:
+        """An Embree scene handle for whole-frame compiled kernels that sample, trace and gather
+        every pixel in one parallel call (run_parallel), or 0: then passes run their chunks
+        through map_chunks. The caller adds the rays traced to rays_traced."""
+        return 0
+
+    def run_parallel(self, kernel, *args):
+        """kernel(workers, *args): a numba parallel kernel that splits its work among `workers`
+        of numba's threads, on this tracer's threads."""
+        import numba
+
+        return kernel(numba.get_num_threads(), *args)
+
     def map_chunks(self, n: int, work, key=None) -> None:
         """work(c, tracer) for slices c covering range(n); a backend may run them concurrently,
         each with a tracer to use from its own thread. key names the kind of work (a pass), so
@@ -133,6 +146,22 @@ class EmbreeTracer(Tracer):
         # only on a thread's own serial view (in a chunk), where tracing inline loses no
         # parallelism; and not while rays are recorded (bench --perf replays them)
         return self.handle if (self.pool is None and self.recording is None) else 0
+
+    def frame_scene(self) -> int:
+        return self.handle if self.recording is None else 0  # recorded rays go through occluded()
+
+    def run_parallel(self, kernel, *args):
+        """kernel(workers, *args) on self.threads of numba's threads (a setting of the calling
+        thread's; a kernel that asked numba itself could not be cached)."""
+        import numba
+
+        threads = numba.get_num_threads()
+        workers = min(self.threads, numba.config.NUMBA_NUM_THREADS)
+        numba.set_num_threads(workers)
+        try:
+            return kernel(workers, *args)
+        finally:
+            numba.set_num_threads(threads)
 
     def serial_view(self) -> EmbreeTracer:
         """The same scene, traced on the calling thread (for code already running in a chunk)."""

@@ -275,6 +275,34 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     r.release()
 
 
+@pytest.mark.parametrize("name,sets", [("cafe", ()), ("temple", ()), ("street", ("ao.rays_per_pixel=3",)),
+                                       ("cafe", ("shadows.lights=one", "shadows.greyscale=true")),
+                                       ("arcade", ("shadows.lights=one", "ao.greyscale=false"))])
+def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypatch):
+    """AO and shadows as one compiled parallel call per frame (Tracer.frame_scene) give the
+    chunked path's images to the bit, and count the same rays, on 1 and 3 threads."""
+    from rt.tracer import EmbreeTracer
+
+    scene = build_builtin(name)
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    frame_scene = EmbreeTracer.frame_scene
+    for threads in (1, 3):
+        for pass_name in ("ao", "shadows"):
+            got = []
+            for whole in (True, False):
+                monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
+                r = make(gl, scene, sets)
+                tracer = r.ray_tracing().tracer
+                tracer.set_threads(threads)
+                for _ in range(2):  # a second frame: other random numbers, the same buffers reused
+                    r.render(cam, 80, 45, pass_name)
+                got.append((r.read_linear(), tracer.rays_traced))
+                r.release()
+            (a, rays_a), (b, rays_b) = got
+            assert np.array_equal(a, b) and rays_a == rays_b > 0 and a.std() > 0.01
+    monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
+
+
 @pytest.mark.parametrize("env", ["sky", "0.1,0.2,0.3", "black"])
 def test_background_kernel_matches_environment(env):
     """The compiled environment lookup (backgrounds, missed GI rays) is scenes/model.py's."""
