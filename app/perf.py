@@ -1,8 +1,11 @@
 """`rtlab bench --perf`: how close each ray-traced pass gets to Embree's own throughput.
 
 For every pass, scene and size: the pass's CPU time, the rays it traced, and the time
-embreex alone needs for the very same ray batches replayed in the same run with the same
-chunking and threads. efficiency = raw trace time / pass time. Also thread scaling, G-buffer
+Embree alone (rt/embree.py, no sampling or shading) needs for the very same ray batches
+replayed in the same run with the same chunking and threads. efficiency = raw trace time /
+pass time. The timed frames run as a user's do (AO and shadows as whole-frame kernels that
+trace as they sample); the recorded frame runs the same passes through their chunked path,
+which makes the same rays. Also thread scaling, G-buffer
 transfers, BVH build time and memory against triangle count, and raster vs RT G-buffers.
 """
 from __future__ import annotations
@@ -110,7 +113,7 @@ def run_perf(args) -> int:
             set_threads(renderer, t)
             for name in PASSES[:4]:
                 # the fastest of 3 frames: on a shared host other tenants slow single frames by up
-                # to 2x (medians of 2 gave pass/embreex ratios from 0.3 to 2.3 on the H100 host)
+                # to 2x (medians of 2 gave pass/raw ratios from 0.3 to 2.3 on the H100 host)
                 m = measure_pass(renderer, camera, size, name, 3)
                 if t == threads[0]:
                     base[name] = m
@@ -140,7 +143,7 @@ def run_perf(args) -> int:
     write_text(out / "perf.json", json.dumps(doc, indent=1))
     for row in doc["scaling"]:
         print(f"  scaling {row['scene']:8} {row['pass']:12} {row['threads']:3d} threads: x{row['speedup']:.2f} "
-              f"(embreex alone x{row['raw_speedup']:.2f})")
+              f"(Embree alone x{row['raw_speedup']:.2f})")
     worst = min(doc["passes"], key=lambda r: r["efficiency"])
     print(f"min efficiency = {worst['efficiency']:.2f} ({worst['pass']}, {worst['scene']}, "
           f"{worst['size'][0]}x{worst['size'][1]})")

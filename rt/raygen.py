@@ -56,7 +56,7 @@ def cos_turns(u):
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def offset(eps, px, py, pz):
-    """How far ray origins are nudged off a surface (embreex has no tnear)."""
+    """How far ray origins are nudged off a surface (tnear stays 0, as embreex had it)."""
     return eps * (ONE + max(abs(px), abs(py), abs(pz)) * F(1e-3))
 
 

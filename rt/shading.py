@@ -121,7 +121,7 @@ class SceneData:
         return out
 
     def offset(self, s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
-        """Ray origins nudged off the surface (embreex has no tnear), on the side of `toward`."""
+        """Ray origins nudged off the surface (tnear stays 0, as embreex had it), on the side of `toward`."""
         ng = s.ng
         if toward is not None:
             side = np.einsum("ij,ij->i", ng, toward) < 0
