@@ -241,32 +241,23 @@ class EmbreeTracer(Tracer):
         return bounds
 
     def replay(self, batches: list) -> float:
-        """Trace recorded batches again, Embree alone with the same chunking and threads (no
-        sampling or shading); returns the seconds spent (the pass's physical limit)."""
-        outputs = [_outputs(b) for b in batches]  # allocated before the clock starts, as a pass's scratch is
-        t0 = time.perf_counter()
-
-        def run(k):
-            kind, o, d, dist = batches[k]
-            out = outputs[k]
-            if kind.startswith("occluded"):
-                embree.occluded(self.handle, o, d, dist, out[0])
-            else:
-                embree.intersect(self.handle, o, d, dist, *out)
-
-        keyed = [k for k, b in enumerate(batches) if b[0].endswith("_chunk")]  # one batch per task, as recorded
-        if keyed:
-            list(self.pool.map(run, keyed)) if self.pool is not None else [run(k) for k in keyed]
-        for k, (kind, o, d, dist) in enumerate(batches):
-            if kind.endswith("_chunk"):
+        """Trace recorded batches again, Embree alone: every occlusion ray, then every closest-hit
+        ray, each kind as one parallel compiled loop on this tracer's threads (no sampling,
+        shading or Python per chunk: the fastest this code can trace these rays, so the pass's
+        physical limit). Returns the seconds spent."""
+        runs = []
+        for kind, fn, outputs in (("occluded", embree.occluded_parallel, (bool,)),
+                                  ("intersect", embree.intersect_parallel, (np.float32, np.int32, np.float32,
+                                                                             np.float32))):
+            mine = [b for b in batches if b[0].startswith(kind)]
+            if not mine:
                 continue
-            out = outputs[k]
-            if kind == "intersect":
-                self._map(lambda c, o=o, d=d, t=dist, out=out: embree.intersect(
-                    self.handle, o[c], d[c], t[c], *(a[c] for a in out)), o.shape[0])
-            else:
-                self._map(lambda c, o=o, d=d, t=dist, out=out: embree.occluded(
-                    self.handle, o[c], d[c], t[c], out[0][c]), o.shape[0])
+            # gathered into one array of each before the clock starts, as a pass's scratch is
+            o, d, t = (np.concatenate([b[k] for b in mine]) for k in (1, 2, 3))
+            runs.append((fn, o, d, t, *(np.empty(o.shape[0], dt) for dt in outputs)))
+        t0 = time.perf_counter()
+        for fn, *args in runs:
+            self.run_parallel(fn, self.handle, *args)
         return time.perf_counter() - t0
 
     def set_threads(self, threads: int) -> None:
@@ -287,10 +278,3 @@ def _distances(tmax, n: int) -> np.ndarray:
         return np.full(n, np.float32(tmax), np.float32)
     return np.ascontiguousarray(tmax, np.float32)
 
-
-def _outputs(batch) -> tuple:
-    """Result arrays for a recorded batch: (blocked,) or (t, prim, u, v)."""
-    n = batch[1].shape[0]
-    if batch[0].startswith("occluded"):
-        return (np.empty(n, bool),)
-    return np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.float32), np.empty(n, np.float32)

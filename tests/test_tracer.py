@@ -61,3 +61,29 @@ def test_direct_embree_calls_match_embreex():
     assert np.array_equal(t[hit], ref["tfar"][hit]) and np.all(t[~hit] == INF)
     assert np.array_equal(u[hit], ref["u"][hit]) and np.array_equal(v[hit], ref["v"][hit])
     ours.close()
+
+
+@pytest.mark.parametrize("workers", [1, 3])
+def test_parallel_kernels_trace_as_the_serial_ones(workers):
+    """The parallel replay kernels (bench --perf's raw time) give the serial kernels' results."""
+    from rt import embree
+
+    positions = np.random.default_rng(2).uniform(-1, 1, (3000, 3)).astype(np.float32)
+    indices = np.arange(3000, dtype=np.int32).reshape(-1, 3)
+    scene = embree.EmbreeScene(positions, indices)
+    rng = np.random.default_rng(3)
+    n = 3 * embree.BLOCK + 77  # blocks for every worker, and a short last one
+    o = rng.uniform(-1.5, 1.5, (n, 3)).astype(np.float32)
+    d = rng.normal(size=(n, 3)).astype(np.float32)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    tmax = rng.uniform(0.1, 3.0, n).astype(np.float32)
+    a, b = np.empty(n, bool), np.empty(n, bool)
+    embree.occluded(scene.handle, o, d, tmax, a)
+    embree.occluded_parallel(workers, scene.handle, o, d, tmax, b)
+    assert np.array_equal(a, b) and 0.05 < a.mean() < 0.95
+    first = [np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.float32), np.empty(n, np.float32)]
+    second = [np.empty_like(x) for x in first]
+    embree.intersect(scene.handle, o, d, tmax, *first)
+    embree.intersect_parallel(workers, scene.handle, o, d, tmax, *second)
+    assert all(np.array_equal(x, y) for x, y in zip(first, second, strict=True)) and (first[1] >= 0).any()
+    scene.close()
