@@ -9,10 +9,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 from app.options import opt, register_group
-from rt import gather, raygen, scratch
+from rt import embree, gather, raygen, scratch
+from rt.kernels import shade_hits
 from rt.shading import direct_one, empty_surface
+
+_shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @dataclass
@@ -63,6 +67,71 @@ def indirect_light(cf, s, rng, G=None) -> np.ndarray:
     return total / np.float32(rays)
 
 
+@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
+def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, out, indirect_image):
+    """The whole GI pass (shadowed, one bounce) in one call: blocks of points split among
+    workers (raygen.frame_blocks), each doing what a chunk does (the same numbers, in the same
+    order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
+    hit, the hit's shading and its own light sample, and the pixels written. Returns the rays
+    traced. env: gather.env_args; mesh: what SceneData.surface shades hits with."""
+    n = keys.shape[0]
+    traced = 0
+    # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
+    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
+    start, rows, keep, alias = lights[1]
+    lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
+    n_lights = lights[3]
+    env_kind, env_color, horizon, zenith, ground = env
+    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
+    for w in prange(workers):
+        ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
+              (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
+        for b0, b1 in raygen.frame_blocks(n, w, workers):
+            nb = b1 - b0
+            kb = keys[b0:b1]
+            direct = np.empty((nb, 3), np.float32)
+            traced += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, direct)
+            total = np.zeros((nb, 3), np.float32)
+            o, d, t, owner = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
+                              np.empty(nb, np.float32), np.empty(nb, np.int32))
+            tmax = np.full(nb, embree.MISS_T, np.float32)
+            th, prim, u, v = (np.empty(nb, np.float32), np.empty(nb, np.int32), np.empty(nb, np.float32),
+                              np.empty(nb, np.float32))
+            sel, hkeys, bounce = np.empty(nb, np.int64), np.empty(nb, np.uint64), np.empty((nb, 3), np.float32)
+            P, N, NG, alb, emis = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
+                                   np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
+                                   np.empty((nb, 3), np.float32))
+            rough, metal = np.empty(nb, np.float32), np.empty(nb, np.float32)
+            for r in range(rays):
+                m = raygen.hemisphere_live(G, b0, kb, 4 + 6 * r, eps, far, o, d, t, owner, 0,
+                                           np.zeros((0, 3), np.float32))
+                embree.intersect(scene, o[:m], d[:m], tmax[:m], th, prim, u, v)
+                bounce[:] = 0.0
+                k = gather.split_hits(prim, m, d, owner, bounce, env_kind, env_color, horizon, zenith, ground, sel)
+                hits = sel[:k]
+                _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic,
+                            emission, tex_offset, tex_w, tex_h, tex_data, P[:k], N[:k], NG[:k], alb[:k], rough[:k],
+                            metal[:k], emis[:k])
+                gather.gather_keys(kb, owner, hits, k, hkeys)
+                hg = np.empty((9, k), np.float32)
+                raygen.surface_soa(P[:k], N[:k], NG[:k], hg)
+                hdirect = np.empty((k, 3), np.float32)
+                traced += m + raygen.direct_block(hg, 0, hkeys[:k], ls, True, 6 + 6 * r, eps, far, scene, hdirect)
+                gather.add_bounce(bounce, owner, hits, k, alb[:k], hdirect, None)
+                for j in range(nb):
+                    for a in range(3):
+                        total[j, a] += bounce[j, a]
+            inv = np.float32(rays)
+            for j in range(nb):
+                for a in range(3):
+                    total[j, a] = total[j, a] / inv
+            gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], direct, total, False)
+            for j in range(nb):
+                p = pix[b0 + j]
+                indirect_image[p, 0], indirect_image[p, 1], indirect_image[p, 2] = total[j, 0], total[j, 1], total[j, 2]
+    return traced
+
+
 class GIPass:
     name = "gi"
     reads = ("gbuffer",)
@@ -74,6 +143,14 @@ class GIPass:
     def execute(self, rf) -> dict:
         out, indirect_image = rf.background(), rf.image()
         shadowed = rf.options.get("gi.shadows")
+        scene = rf.tracer.frame_scene()
+        if scene and shadowed and rf.options.get("gi.bounces") == 1 and rf.gb.soa is not None:
+            s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
+            rf.tracer.rays_traced += rf.tracer.run_parallel(
+                gi_frame, rf.gb.soa, rf.frame_keys(4), rf.options.get("gi.rays_per_pixel"), data.lights.kernel_args,
+                data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args, rf.gb.index, s.emissive,
+                s.albedo, out, indirect_image)
+            return {"radiance": out, "rt_indirect": indirect_image}
 
         def work(cf):
             s, rng = cf.s, cf.rng(4)

@@ -120,6 +120,12 @@ class SceneData:
                                out.roughness, out.metallic, out.emissive)
         return out
 
+    @property
+    def mesh_args(self) -> tuple:
+        """What surface() shades hits with, for compiled kernels that shade hits themselves."""
+        return (self.corners, self.face_normals, self.base_color, self.roughness, self.metallic, self.emissive,
+                self.tex_offset, self.tex_w, self.tex_h, self.tex_data)
+
     def offset(self, s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
         """Ray origins nudged off the surface (tnear stays 0, as embreex had it), on the side of `toward`."""
         ng = s.ng

@@ -275,19 +275,22 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     r.release()
 
 
-@pytest.mark.parametrize("name,sets", [("cafe", ()), ("temple", ()), ("street", ("ao.rays_per_pixel=3",)),
+@pytest.mark.parametrize("name,sets", [("cafe", ()), ("temple", ()),
+                                       ("street", ("ao.rays_per_pixel=3", "gi.rays_per_pixel=2")),
                                        ("cafe", ("shadows.lights=one", "shadows.greyscale=true")),
                                        ("arcade", ("shadows.lights=one", "ao.greyscale=false"))])
 def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypatch):
-    """AO and shadows as one compiled parallel call per frame (Tracer.frame_scene) give the
-    chunked path's images to the bit, and count the same rays, on 1 and 3 threads."""
+    """AO, shadows and GI as one compiled parallel call per frame (Tracer.frame_scene) give the
+    chunked path's images and count the same rays, on 1 and 3 threads. Equal to the float32
+    rounding of vectorised loops: points at a block's edge may take the scalar remainder of a
+    vectorised loop in one path and the vector body in the other (GI's light weights: 1 ulp)."""
     from rt.tracer import EmbreeTracer
 
     scene = build_builtin(name)
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     frame_scene = EmbreeTracer.frame_scene
     for threads in (1, 3):
-        for pass_name in ("ao", "shadows"):
+        for pass_name in ("ao", "shadows", "gi"):
             got = []
             for whole in (True, False):
                 monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
@@ -299,7 +302,7 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
                 got.append((r.read_linear(), tracer.rays_traced))
                 r.release()
             (a, rays_a), (b, rays_b) = got
-            assert np.array_equal(a, b) and rays_a == rays_b > 0 and a.std() > 0.01
+            assert np.allclose(a, b, rtol=1e-5, atol=1e-7) and rays_a == rays_b > 0 and a.std() > 0.01
     monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
 
 
@@ -353,12 +356,12 @@ def test_chunk_balance_keeps_the_image(gl):
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     tracer = r.ray_tracing().tracer
     tracer.set_threads(3)
-    first = r.render(cam, 256, 144, "gi") and r.read_linear()
+    first = r.render(cam, 256, 144, "reflections") and r.read_linear()  # a pass that runs in chunks
     assert tracer._costs  # measured
     key = next(iter(tracer._costs))
     tracer._costs[key] = np.linspace(1.0, 50.0, tracer.COST_BINS)  # skewed bounds next time
     r.reset()
-    second = r.render(cam, 256, 144, "gi") and r.read_linear()
+    second = r.render(cam, 256, 144, "reflections") and r.read_linear()
     assert np.abs(first - second).max() < 1e-5
     r.release()
 
