@@ -29,8 +29,8 @@ GEOMETRY_TRIANGLE, BUFFER_INDEX, BUFFER_VERTEX = 0, 0, 1
 FORMAT_UINT3, FORMAT_FLOAT3 = 0x5003, 0x9003
 SCENE_FLAG_ROBUST = 1 << 2
 # RTCRayHit (at most 28 words with instance ids) on cache lines of its own: 32 words from a
-# 64-byte boundary, and room to find one. Two threads' buffers sharing a line cost every ray a
-# line transfer (2-core machine, AO from numba's threads: 63 ms on one, 51 on two)
+# 64-byte boundary, and room to find one, so that no two threads' ray buffers share a line
+# (a precaution: it measured the same as 16-byte alignment on the 2-core machine)
 RAYHIT_WORDS = 48
 
 
