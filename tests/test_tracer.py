@@ -87,3 +87,19 @@ def test_parallel_kernels_trace_as_the_serial_ones(workers):
     embree.intersect_parallel(workers, scene.handle, o, d, tmax, *second)
     assert all(np.array_equal(x, y) for x, y in zip(first, second, strict=True)) and (first[1] >= 0).any()
     scene.close()
+
+
+def test_kernel_cache_follows_every_source(tmp_path):
+    """Compiled kernels are cached per version of all of rt/'s sources: a change to any one
+    module (whose code other modules' kernels carry) moves the cache."""
+    import shutil
+    from pathlib import Path
+
+    import rt
+
+    src = tmp_path / "rt"
+    shutil.copytree(Path(rt.__file__).parent, src, ignore=shutil.ignore_patterns("__pycache__"))
+    first = rt.cache_dir(src)
+    assert rt.cache_dir(src) == first
+    (src / "raygen.py").write_text((src / "raygen.py").read_text() + "\n# changed\n")
+    assert rt.cache_dir(src) != first
