@@ -352,25 +352,39 @@ SCRATCH_ROWS = 3  # one_light_shadow_rays' scratch rows besides the weights
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w):
-    """w[k, i]: light k's estimated contribution at block point i. Analytic lights exactly (up
-    to the albedo); emissive clusters by a bound from their bounding sphere, never zero where
-    some part could contribute (the cosine bound grows with the cluster's angular size). One
-    branch-free loop over the block per light."""
+def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, run):
+    """w[k, i]: the running sum over lights 0..k of their estimated contribution at block point
+    i (run: scratch, left holding the total). Analytic lights exactly (up to the albedo);
+    emissive clusters by a bound from their bounding sphere, never zero where some part could
+    contribute (the cosine bound grows with the cluster's angular size). One branch-free loop
+    over the block per light, specialised by the kind of light."""
     lx, ly, lz, sx, sy, sz, lum, cos_out, spot_scale, sun, cx, cy, cz, radius, power = guide
     na = lx.shape[0]
+    for i in range(nb):
+        run[i] = ZERO
     for k in range(na):
         qx, qy, qz, dx, dy, dz = lx[k], ly[k], lz[k], sx[k], sy[k], sz[k]
-        co, sc, lk, is_sun = cos_out[k], spot_scale[k], lum[k], sun[k]
+        co, sc, lk = cos_out[k], spot_scale[k], lum[k]
         row = w[k]
-        for i in range(nb):
-            vx, vy, vz = qx - px[i], qy - py[i], qz - pz[i]
-            d2 = max(vx * vx + vy * vy + vz * vz, TINY)
-            inv = ONE / np.sqrt(d2)
-            t = min(max((-(vx * dx + vy * dy + vz * dz) * inv - co) * sc, ZERO), ONE)
-            local = max((nx[i] * vx + ny[i] * vy + nz[i] * vz) * inv, ZERO) * inv * inv * t * t  # point, spot
-            far = max(-(nx[i] * dx + ny[i] * dy + nz[i] * dz), ZERO) + F(1e-6)  # sun
-            row[i] = lk * (far if is_sun else local)
+        if sun[k]:
+            for i in range(nb):
+                run[i] += lk * (max(-(nx[i] * dx + ny[i] * dy + nz[i] * dz), ZERO) + F(1e-6))
+                row[i] = run[i]
+        elif co > F(-1.5):  # a spot: its cone
+            for i in range(nb):
+                vx, vy, vz = qx - px[i], qy - py[i], qz - pz[i]
+                d2 = max(vx * vx + vy * vy + vz * vz, TINY)
+                inv = ONE / np.sqrt(d2)
+                t = min(max((-(vx * dx + vy * dy + vz * dz) * inv - co) * sc, ZERO), ONE)
+                run[i] += lk * (max((nx[i] * vx + ny[i] * vy + nz[i] * vz) * inv, ZERO) * inv * inv * t * t)
+                row[i] = run[i]
+        else:  # a point light
+            for i in range(nb):
+                vx, vy, vz = qx - px[i], qy - py[i], qz - pz[i]
+                d2 = max(vx * vx + vy * vy + vz * vz, TINY)
+                inv = ONE / np.sqrt(d2)
+                run[i] += lk * (max((nx[i] * vx + ny[i] * vy + nz[i] * vz) * inv, ZERO) * inv * inv)
+                row[i] = run[i]
     for j in range(cx.shape[0]):
         qx, qy, qz, r, pj = cx[j], cy[j], cz[j], radius[j], power[j]
         row = w[na + j]
@@ -381,7 +395,8 @@ def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w):
             sin_r = min(r * inv, ONE)
             cb = min(max((nx[i] * vx + ny[i] * vy + nz[i] * vz) * inv + sin_r, ZERO), ONE)
             cb = cb if sin_r < ONE else ONE
-            row[i] = pj * max(cb, F(0.02)) / max(d2 - r * r, r * r * F(0.25) + TINY)
+            run[i] += pj * max(cb, F(0.02)) / max(d2 - r * r, r * r * F(0.25) + TINY)
+            row[i] = run[i]
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
@@ -394,7 +409,7 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
     start, rows, keep, alias = emitters
     count_analytic = kind.shape[0]
     n_lights = weights.shape[0] - SCRATCH_ROWS
-    w = weights[:n_lights]  # weights, then their running sums over the lights
+    w = weights[:n_lights]  # the running sums of the weights over the lights
     total, target, pick = weights[-3], weights[-2], weights[-1]
     blk = np.empty((7, BLOCK), np.float32)
     dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
@@ -408,12 +423,8 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
         nb = b1 - b0
         px, py, pz, nx, ny, nz = G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1]
         gx, gy, gz, bkeys = G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1]
-        _light_weights(px, py, pz, nx, ny, nz, nb, guide, w)
-        for k in range(1, n_lights):  # running sums, a light at a time across the block
-            for i in range(nb):
-                w[k, i] += w[k - 1, i]
+        _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
         for i in range(nb):
-            total[i] = w[n_lights - 1, i]
             target[i] = uniform(bkeys[i], dim) * total[i]
             pick[i] = ZERO
         for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
