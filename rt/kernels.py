@@ -12,12 +12,44 @@ import types
 from contextlib import contextmanager
 
 import numpy as np
+from llvmlite import ir
 from numba import njit, prange
+from numba.core import cgutils
+from numba.core import types as nbtypes
+from numba.extending import intrinsic
 
 TWO_PI = 2.0 * math.pi
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 M1 = np.uint64(0xBF58476D1CE4E5B9)
 M2 = np.uint64(0x94D049BB133111EB)
+
+
+@intrinsic
+def prefetch_row(typingctx, array, row):
+    """Ask the CPU to start loading row `row` of `array` into the cache (x86 PREFETCHT0; no
+    fault, no result). Incoherent hits read mesh rows at random: fetched a few hits ahead, the
+    misses overlap instead of stalling one after another."""
+    if not isinstance(array, nbtypes.Array) or not isinstance(row, nbtypes.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        ary = context.make_array(aty)(context, builder, args[0])
+        zero = context.get_constant(nbtypes.intp, 0)
+        index = context.cast(builder, args[1], signature.args[1], nbtypes.intp)
+        ptr = cgutils.get_item_pointer(context, builder, aty, ary, [index] + [zero] * (aty.ndim - 1),
+                                       wraparound=False)
+        i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
+                                            "llvm.prefetch.p0i8")
+        builder.call(fn, [builder.bitcast(ptr, i8p), ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return nbtypes.void(array, row), codegen
+
+
+AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (2-core machine:
+# 54-96 -> 31-52 ns a hit on three scenes' bounce hits; 4 and 16 ahead gained less)
 
 
 @njit(cache=True, error_model="numpy")
@@ -55,7 +87,12 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
     """Surface data at the hits of rays sel[k] (written at k): position, normals facing the ray,
     textured albedo, material. corners: per triangle its 3 vertex normals, 3 uvs and material
     (SceneData.corners), so an incoherent hit reads one row of mesh data, not one per array."""
-    for k in prange(sel.shape[0]):
+    n = sel.shape[0]
+    for k in prange(n):
+        if k + AHEAD < n:
+            ahead = prim[sel[k + AHEAD]]
+            prefetch_row(corners, ahead)
+            prefetch_row(face_normals, ahead)
         i = sel[k]
         tri = prim[i]
         c = corners[tri]
