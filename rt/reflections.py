@@ -6,10 +6,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 from app.options import opt, register_group
-from rt import gather, scratch
+from rt import embree, gather, raygen, scratch
+from rt.kernels import shade_hits
 from rt.shading import INV_PI, direct_one, empty_surface
+
+_shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @dataclass
@@ -77,6 +81,90 @@ def reflect(cf, reflection: np.ndarray | None = None) -> np.ndarray:
     return local
 
 
+@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
+def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, mesh, pix, surface, view_dir, out,
+                      reflection_image):
+    """The whole reflections pass (one mirror bounce) in one call: blocks of points split among
+    workers (raygen.frame_blocks), each doing what a chunk does (the same numbers, in the same
+    order): the local colour (lit: one chosen light, shadowed), a mirror ray from each point
+    smoother than thr, its closest hit shaded (lit: with its own light sample), Fresnel's blend
+    and the pixels written. Returns the rays traced. env: gather.env_args; mesh: what
+    SceneData.surface shades hits with; surface: the G-buffer's (p, n, ng, albedo, roughness,
+    metallic, emissive)."""
+    n = keys.shape[0]
+    traced = 0
+    # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
+    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
+    start, rows, keep, alias = lights[1]
+    lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
+    n_lights = lights[3]
+    env_kind, env_color, horizon, zenith, ground = env
+    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
+    P, N, NG, albedo, rough, metal, emissive = surface
+    for w in prange(workers):
+        ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
+              (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
+        for b0, b1 in raygen.frame_blocks(n, w, workers):
+            nb = b1 - b0
+            kb = keys[b0:b1]
+            local = np.empty((nb, 3), np.float32)
+            if lit:
+                traced += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, local)
+                for j in range(nb):
+                    for a in range(3):
+                        local[j, a] *= albedo[b0 + j, a] * INV_PI
+            else:
+                local[:] = albedo[b0:b1]
+            smooth, near = np.empty(nb, np.int64), np.empty(nb, np.int64)  # frame rows, block rows
+            m = 0
+            for j in range(nb):
+                if rough[b0 + j] < thr:
+                    smooth[m], near[m] = b0 + j, j
+                    m += 1
+            V, o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
+            skeys, owner = np.empty(m, np.uint64), np.arange(m)
+            for k in range(m):
+                p = pix[smooth[k]]
+                V[k, 0], V[k, 1], V[k, 2] = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
+                skeys[k] = kb[near[k]]
+            gather.mirror_rays(P, N, NG, V, smooth[:m], eps, o, d)
+            th, prim, u, v = (np.empty(m, np.float32), np.empty(m, np.int32), np.empty(m, np.float32),
+                              np.empty(m, np.float32))
+            embree.intersect(scene, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
+            refl, hit = np.zeros((m, 3), np.float32), np.empty(m, np.int64)
+            k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, hit)
+            hits = hit[:k]
+            HP, HN, HNG, halb, hemis = (np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
+                                        np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
+                                        np.empty((k, 3), np.float32))
+            hrough, hmetal = np.empty(k, np.float32), np.empty(k, np.float32)
+            _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic,
+                        emission, tex_offset, tex_w, tex_h, tex_data, HP, HN, HNG, halb, hrough, hmetal, hemis)
+            hdirect = np.zeros((k, 3), np.float32)
+            if lit:
+                hkeys = np.empty(k, np.uint64)
+                gather.gather_keys(skeys, owner, hits, k, hkeys)
+                hg = np.empty((9, k), np.float32)
+                raygen.surface_soa(HP, HN, HNG, hg)
+                traced += raygen.direct_block(hg, 0, hkeys, ls, True, 4, eps, far, scene, hdirect)
+            traced += m
+            colour = np.zeros((k, 3), np.float32)
+            gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
+            for i in range(k):
+                for a in range(3):
+                    refl[hits[i], a] = colour[i, a]
+            reflection = np.zeros((nb, 4), np.float32)
+            gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo[b0:b1], metal[b0:b1],
+                                N[b0:b1], V, refl, reflection)
+            for j in range(nb):
+                p = pix[b0 + j]
+                for a in range(3):
+                    out[p, a] = local[j, a] + emissive[b0 + j, a]
+                for a in range(4):
+                    reflection_image[p, a] = reflection[j, a]
+    return traced
+
+
 class ReflectionsPass:
     name = "reflections"
     reads = ("gbuffer",)
@@ -87,6 +175,16 @@ class ReflectionsPass:
 
     def execute(self, rf) -> dict:
         out, reflection_image = rf.background(), rf.image(4)
+        scene = rf.tracer.frame_scene()
+        if scene and rf.options.get("reflections.max_depth") == 1 and rf.gb.soa is not None:
+            s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
+            rf.tracer.rays_traced += rf.tracer.run_parallel(
+                reflections_frame, rf.gb.soa, rf.frame_keys(3),
+                np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
+                data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
+                rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
+                reflection_image)
+            return {"radiance": out, "rt_reflection": reflection_image}
 
         def work(cf):
             reflection = scratch.buffer("refl.rgba", (len(cf.s), 4))

@@ -278,9 +278,10 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
 @pytest.mark.parametrize("name,sets", [("cafe", ()), ("temple", ()),
                                        ("street", ("ao.rays_per_pixel=3", "gi.rays_per_pixel=2")),
                                        ("cafe", ("shadows.lights=one", "shadows.greyscale=true")),
-                                       ("arcade", ("shadows.lights=one", "ao.greyscale=false"))])
+                                       ("arcade", ("shadows.lights=one", "ao.greyscale=false")),
+                                       ("street", ("reflections.lit=false", "reflections.roughness_threshold=0.6"))])
 def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypatch):
-    """AO, shadows and GI as one compiled parallel call per frame (Tracer.frame_scene) give the
+    """AO, shadows, GI and reflections as one compiled parallel call per frame (Tracer.frame_scene) give the
     chunked path's images and count the same rays, on 1 and 3 threads. Equal to the float32
     rounding of vectorised loops: points at a block's edge may take the scalar remainder of a
     vectorised loop in one path and the vector body in the other (GI's light weights: 1 ulp)."""
@@ -290,19 +291,29 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     frame_scene = EmbreeTracer.frame_scene
     for threads in (1, 3):
-        for pass_name in ("ao", "shadows", "gi"):
+        for pass_name in ("ao", "shadows", "gi", "reflections"):
             got = []
             for whole in (True, False):
                 monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
                 r = make(gl, scene, sets)
                 tracer = r.ray_tracing().tracer
                 tracer.set_threads(threads)
+                rt_pass, outputs = r.rt_passes[pass_name], {}
+
+                def keep(rf, execute=rt_pass.execute, outputs=outputs):
+                    outputs.update((k, v.copy()) for k, v in execute(rf).items())
+                    return outputs
+
+                monkeypatch.setattr(rt_pass, "execute", keep)
                 for _ in range(2):  # a second frame: other random numbers, the same buffers reused
                     r.render(cam, 80, 45, pass_name)
-                got.append((r.read_linear(), tracer.rays_traced))
+                got.append((r.read_linear(), tracer.rays_traced, outputs))
                 r.release()
-            (a, rays_a), (b, rays_b) = got
+            (a, rays_a, out_a), (b, rays_b, out_b) = got
             assert np.allclose(a, b, rtol=1e-5, atol=1e-7) and rays_a == rays_b > 0 and a.std() > 0.01
+            assert out_a.keys() == out_b.keys() == set(rt_pass.writes)
+            for k in out_a:  # the passes' other outputs too (what hybrid views swap in)
+                assert np.allclose(out_a[k], out_b[k], rtol=1e-5, atol=1e-7), k
     monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
 
 
@@ -352,11 +363,11 @@ def test_chunk_balance_keeps_the_image(gl):
     """Chunk bounds follow last frame's cost; every pixel's numbers are its own, so the image
     stays the same whatever the bounds."""
     scene = build_builtin("arcade")
-    r = make(gl, scene)
+    r = make(gl, scene, ["reflections.max_depth=2"])  # two mirrors: a pass that runs in chunks
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     tracer = r.ray_tracing().tracer
     tracer.set_threads(3)
-    first = r.render(cam, 256, 144, "reflections") and r.read_linear()  # a pass that runs in chunks
+    first = r.render(cam, 256, 144, "reflections") and r.read_linear()
     assert tracer._costs  # measured
     key = next(iter(tracer._costs))
     tracer._costs[key] = np.linspace(1.0, 50.0, tracer.COST_BINS)  # skewed bounds next time
