@@ -61,7 +61,8 @@ def offset(eps, px, py, pz):
 
 
 NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (0)
-FRAME_BLOCK = 2048  # points per work item of the whole-frame kernels (frame_blocks)
+FRAME_BLOCK = 2048, 32768  # fewest and most points per work item of the whole-frame kernels (frame_blocks)
+BLOCKS_PER_WORKER = 8
 RUN = 256  # points per step: a vectorised loop fills the step's rays, a short serial one packs them
 
 
@@ -479,14 +480,18 @@ def add_open(count, idx, blocked, m):
 
 @njit(cache=True, error_model="numpy")
 def frame_blocks(n, worker, workers):
-    """The blocks of FRAME_BLOCK points out of n that a whole-frame kernel's worker takes:
-    every workers-th, from its own number on. Interleaved, so that each worker gets its share
-    of sky and of detail (2-core machine, park AO: halves of the image took 55 ms, interleaved
-    blocks 34; numba's dynamic scheduling did not help), while the workers trace neighbouring
-    blocks at the same time, which share the BVH's nodes in the cache."""
+    """The blocks of points out of n that a whole-frame kernel's worker takes: every
+    workers-th, from its own number on. Interleaved, so that each worker gets its share of sky
+    and of detail (2-core machine, park AO: halves of the image took 55 ms, interleaved blocks
+    34; numba's dynamic scheduling did not help), while the workers trace neighbouring blocks
+    at the same time, which share the BVH's nodes in the cache. BLOCKS_PER_WORKER blocks each,
+    within FRAME_BLOCK's bounds: a pass's steps run a block at a time, and larger blocks keep
+    each step's data (the BVH while tracing, mesh rows while shading) in the cache longer
+    (2-core machine, GI at 1280x720: 32768-point blocks 5-10 % faster than 2048)."""
+    size = min(max(n // (workers * BLOCKS_PER_WORKER), FRAME_BLOCK[0]), FRAME_BLOCK[1])
     blocks = []
-    for block in range(worker, (n + FRAME_BLOCK - 1) // FRAME_BLOCK, workers):
-        blocks.append((block * FRAME_BLOCK, min((block + 1) * FRAME_BLOCK, n)))
+    for block in range(worker, (n + size - 1) // size, workers):
+        blocks.append((block * size, min((block + 1) * size, n)))
     return blocks
 
 
