@@ -61,6 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--quick", action="store_true", help="small smoke run: 160x90, 2 frames, small reference")
     s.add_argument("--perf", action="store_true", help="ray-tracing efficiency, thread scaling, transfers, BVH builds")
     s.add_argument("--perf-sizes", help="sizes for --perf (default 640x360,1280x720)")
+    s.add_argument("--perf-rounds", type=int, help="sweeps through the thread counts for --perf's scaling, "
+                   "keeping each count's fastest frame (default 2; more on a noisy shared host)")
 
     s = sub.add_parser("report", help="write tables, plots and recommendations from a bench folder")
     s.add_argument("dir")

@@ -67,8 +67,10 @@ class RtFrame:
     def image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
         """An (N, channels) full-image array filled with `fill`, for chunks to write their pixels
         into; name: which of the frame's outputs it is (one buffer per name and size)."""
+        from rt.kernels import fill_rows
+
         out = self._buffer(f"image{channels}{name}", channels)
-        out.fill(fill)
+        fill_rows(out, np.float32(fill))
         return out
 
     def _buffer(self, name: str, channels: int) -> np.ndarray:

@@ -487,7 +487,8 @@ def frame_blocks(n, worker, workers):
     at the same time, which share the BVH's nodes in the cache. BLOCKS_PER_WORKER blocks each,
     within FRAME_BLOCK's bounds: a pass's steps run a block at a time, and larger blocks keep
     each step's data (the BVH while tracing, mesh rows while shading) in the cache longer
-    (2-core machine, GI at 1280x720: 32768-point blocks 5-10 % faster than 2048)."""
+    (2-core machine, GI at 1280x720: 2048-point blocks ran 2-12 % slower than the chunked
+    path, whose steps each cover a thread's whole share; 32768-point blocks 4-8 % faster)."""
     size = min(max(n // (workers * BLOCKS_PER_WORKER), FRAME_BLOCK[0]), FRAME_BLOCK[1])
     blocks = []
     for block in range(worker, (n + size - 1) // size, workers):

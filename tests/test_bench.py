@@ -82,3 +82,27 @@ def test_bench_user_errors(tmp_path):
     r = subprocess.run([sys.executable, "-m", "app.cli", "report", str(tmp_path / "none")], capture_output=True,
                        text=True, timeout=60)
     assert r.returncode != 0 and "results.json" in r.stderr
+
+
+def test_perf_measures_every_pass_thread_count_and_bvh(tmp_path):
+    """`bench --perf`: efficiency per pass, scaling over repeated sweeps of the thread counts,
+    BVH builds; the last printed line names the least efficient pass."""
+    r = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--perf", "--quick", "--scenes", "arcade",
+                        "--perf-rounds", "2", "--out", str(tmp_path)], capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "perf.json").read_text())
+    passes = {row["pass"]: row for row in doc["passes"]}
+    assert set(passes) == {"shadows", "ao", "gi", "reflections", "reference"}
+    for row in passes.values():
+        assert row["rays"] > 0 and row["raw_trace_ms"] > 0 and row["efficiency"] == row["raw_trace_ms"] / row["pass_ms"]
+    worst = min(passes.values(), key=lambda row: row["efficiency"])
+    assert r.stdout.strip().splitlines()[-1].startswith(f"min efficiency = {worst['efficiency']:.2f} ({worst['pass']}")
+    counts = sorted({row["threads"] for row in doc["scaling"]})
+    assert counts[0] == 1 and len(doc["scaling"]) == 4 * len(counts)
+    for row in doc["scaling"]:
+        assert row["rounds"] == 2 and row["pass_ms"] > 0 and row["raw_trace_ms"] > 0
+        assert row["speedup"] == 1.0 if row["threads"] == 1 else row["speedup"] > 0
+    assert [b["scene"] for b in doc["bvh"]] == ["park:1", "park:2"] and all(b["build_s"] > 0 for b in doc["bvh"])
+    bad = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--perf", "--quick", "--perf-rounds", "0", "--out",
+                          str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert bad.returncode != 0 and "--perf-rounds" in bad.stderr and "Traceback" not in bad.stderr
