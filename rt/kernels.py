@@ -298,8 +298,9 @@ def scatter_rows(out, idx, values):
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def fill_rows(out, value):
-    """out[:] = value over numba's threads: a full image is 4-15 MB, and NumPy's one-thread
-    fill of it took a millisecond or more of a 6-10 ms pass on 16 cores."""
+    """out[:] = value over numba's threads: a full image is 4-15 MB, and NumPy fills on one
+    thread, a step that would not shrink with the rest of a pass on 16 cores (2-core machine,
+    11 MB: NumPy 0.19 ms, this 0.14 ms on 1 thread and 0.10 on 2)."""
     flat = out.reshape(out.size)
     for j in prange(flat.shape[0]):
         flat[j] = value
