@@ -212,20 +212,6 @@ def _sun(ax, ay, az, cos_ang, u0, u1):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _towards(k, px, py, pz, spot, lpos, ldir, cos_out, spot_scale):
-    """Point or spot light k seen from p: (dir, dist, attenuation: 1/d^2 x the spot's cone)."""
-    vx, vy, vz = lpos[k, 0] - px, lpos[k, 1] - py, lpos[k, 2] - pz
-    d2 = max(vx * vx + vy * vy + vz * vz, TINY)
-    inv = ONE / np.sqrt(d2)
-    dx, dy, dz = vx * inv, vy * inv, vz * inv
-    att = inv * inv
-    if spot:  # glTF's squared linear ramp
-        t = min(max((-(dx * ldir[k, 0] + dy * ldir[k, 1] + dz * ldir[k, 2]) - cos_out[k]) * spot_scale[k], ZERO), ONE)
-        att *= t * t
-    return dx, dy, dz, d2 * inv, att
-
-
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, far, dx, dy, dz, dd, er, eg, eb, nb):
     """One loop per light type, so each stays short and branch-free; the light's parameters are
     read into locals first (loads from the light arrays inside the loop would have to be
@@ -271,28 +257,6 @@ def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direct
         else:
             m = _pack(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
-
-
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _emitter(lo, hi, px, py, pz, u0, u1, u2, rows, keep, alias):
-    """A point on one of the triangles rows[lo:hi] of a cluster (alias method: O(1)), as
-    (dir, dist short of the emitter, Le x cos_light / d^2 / pdf_area)."""
-    x = u0 * F(hi - lo)
-    slot = min(int(x), hi - lo - 1)
-    j = lo + slot
-    j = j if (x - F(slot)) < keep[j] else lo + alias[j]
-    su = np.sqrt(u1)
-    b1, b2 = su * (ONE - u2), su * u2
-    vx = rows[j, 0] + rows[j, 3] * b1 + rows[j, 6] * b2 - px
-    vy = rows[j, 1] + rows[j, 4] * b1 + rows[j, 7] * b2 - py
-    vz = rows[j, 2] + rows[j, 5] * b1 + rows[j, 8] * b2 - pz
-    d2 = max(vx * vx + vy * vy + vz * vz, TINY)
-    inv = ONE / np.sqrt(d2)
-    dx, dy, dz = vx * inv, vy * inv, vz * inv
-    cl = -(rows[j, 9] * dx + rows[j, 10] * dy + rows[j, 11] * dz)
-    cl = abs(cl) if rows[j, 15] > ZERO else max(cl, ZERO)
-    g = cl * inv * inv
-    return dx, dy, dz, d2 * inv * F(1.0 - 1e-4), rows[j, 12] * g, rows[j, 13] * g, rows[j, 14] * g
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -349,7 +313,7 @@ def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin
 
 
 BLOCK = 64  # points whose light weights are computed together, one light at a time (vectorises)
-SCRATCH_ROWS = 3  # one_light_shadow_rays' scratch rows besides the weights
+SCRATCH_ROWS = 6  # one_light_shadow_rays' scratch rows besides the weights
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -400,18 +364,128 @@ def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, run):
             row[i] = run[i]
 
 
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _draw_targets(keys, dim, nb, total, target, pick, u1, u2, u3):
+    """Per point: where in its running sums the pick falls, and the numbers that sample the
+    light picked (vectorises: the hash is integer arithmetic)."""
+    for i in range(nb):
+        key = keys[i]
+        target[i] = uniform(key, dim) * total[i]
+        u1[i], u2[i], u3[i] = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
+        pick[i] = ZERO
+
+
+LIGHT_ROW = 16  # what sampling a picked light needs, one row per analytic light or emitting triangle
+PICKED_ROWS = LIGHT_ROW + 2  # + 1 / the pick's probability, + is it an emitter
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def analytic_rows(analytic):
+    """One LIGHT_ROW row per analytic light: position, direction to a sun (minus the light's
+    direction), the spot cone's cos_out and scale (a point light's: -2 and 1, never cut), the
+    cosine of a sun's angular radius, 1 for a sun, radiance."""
+    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
+    out = np.zeros((kind.shape[0], LIGHT_ROW), np.float32)
+    for k in range(kind.shape[0]):
+        for a in range(3):
+            out[k, a], out[k, 3 + a], out[k, 10 + a] = lpos[k, a], -ldir[k, a], lrad[k, a]
+        spot = kind[k] == 1
+        out[k, 6] = cos_out[k] if spot else F(-2.0)
+        out[k, 7] = spot_scale[k] if spot else ONE
+        out[k, 8] = cos_ang[k]
+        out[k, 9] = ONE if kind[k] == 2 else ZERO
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
+    """S[:16, b]: the row of what point b picked (the analytic light's, or for an emissive
+    cluster the triangle drawn from it with u1, alias method), S[16, b] 1 / the pick's
+    probability (0 where the light cannot contribute), S[17, b] 1 for an emitter. A serial
+    loop of loads, so that the sampling loop after it reads unit-stride rows and vectorises."""
+    start, rows, keep, alias = emitters
+    for b in range(nb):
+        kk = int(pick[b])
+        wk = w[kk, b] - (w[kk - 1, b] if kk > 0 else ZERO)
+        prob = wk / total[b] if total[b] > ZERO else ZERO
+        S[16, b] = ONE / prob if prob > ZERO else ZERO
+        if kk < na:
+            for c in range(LIGHT_ROW):
+                S[c, b] = table[kk, c]
+            S[17, b] = ZERO
+        else:
+            lo, hi = start[kk - na], start[kk - na + 1]
+            x = u1[b] * F(hi - lo)
+            slot = min(int(x), hi - lo - 1)
+            j = lo + slot
+            j = j if (x - F(slot)) < keep[j] else lo + alias[j]
+            for c in range(LIGHT_ROW):
+                S[c, b] = rows[j, c]
+            S[17, b] = ONE
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
+    """The shadow ray of every point towards the light it picked (rows S, _gather_picked),
+    divided by the pick's probability: one branch-free loop over unit-stride rows that
+    computes a sun's cone sample (_sun), a point or spot light's direction (its distance and
+    glTF's squared linear ramp, as _analytic_step) and a point on an emitting triangle
+    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies."""
+    for b in range(nb):
+        # a sun: a direction in its cone
+        ax, ay, az = S[3, b], S[4, b], S[5, b]
+        ct = ONE - u1[b] * (ONE - S[8, b])
+        st = np.sqrt(max(ZERO, ONE - ct * ct))
+        ux, uy, uz = about(ax, ay, az, st * cos_turns(u2[b]), st * sin_turns(u2[b]), ct)
+        # a point or spot light: glTF's squared linear ramp
+        vx, vy, vz = S[0, b] - px[b], S[1, b] - py[b], S[2, b] - pz[b]
+        d2 = max(vx * vx + vy * vy + vz * vz, TINY)
+        r = ONE / np.sqrt(d2)
+        qx, qy, qz = vx * r, vy * r, vz * r
+        t = min(max(((qx * ax + qy * ay + qz * az) - S[6, b]) * S[7, b], ZERO), ONE)
+        is_sun = S[9, b] > ZERO
+        att = ONE if is_sun else r * r * t * t
+        # a point on an emitting triangle: Le x cos_light / d^2 / pdf_area
+        su = np.sqrt(u2[b])
+        b1, b2 = su * (ONE - u3[b]), su * u3[b]
+        wx = S[0, b] + S[3, b] * b1 + S[6, b] * b2 - px[b]
+        wy = S[1, b] + S[4, b] * b1 + S[7, b] * b2 - py[b]
+        wz = S[2, b] + S[5, b] * b1 + S[8, b] * b2 - pz[b]
+        e2 = max(wx * wx + wy * wy + wz * wz, TINY)
+        ri = ONE / np.sqrt(e2)
+        mx, my, mz = wx * ri, wy * ri, wz * ri
+        cl = -(S[9, b] * mx + S[10, b] * my + S[11, b] * mz)
+        cl = abs(cl) if S[15, b] > ZERO else max(cl, ZERO)
+        g = cl * ri * ri
+        inv = S[16, b]
+        if S[17, b] > ZERO:
+            x, y, z, dist = mx, my, mz, e2 * ri * F(1.0 - 1e-4)
+            ex, ey, ez = S[12, b] * g * inv, S[13, b] * g * inv, S[14, b] * g * inv
+        else:
+            x = ux if is_sun else qx
+            y = uy if is_sun else qy
+            z = uz if is_sun else qz
+            dist = far if is_sun else d2 * r
+            att *= inv
+            ex, ey, ez = S[10, b] * att, S[11, b] * att, S[12, b] * att
+        _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
+
+
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
                           e, idx, scene, acc):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
-    lights); packed (or traced into acc if scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch."""
-    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
-    start, rows, keep, alias = emitters
-    count_analytic = kind.shape[0]
+    lights); packed (or traced into acc if scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch.
+    Each step is a loop over the block's points: weights, draws, the pick, the picked light's
+    row gathered, then the rays (branch-free: it vectorises)."""
+    table = analytic_rows(analytic)
+    na = table.shape[0]
     n_lights = weights.shape[0] - SCRATCH_ROWS
     w = weights[:n_lights]  # the running sums of the weights over the lights
-    total, target, pick = weights[-3], weights[-2], weights[-1]
+    total, target, pick, u1, u2, u3 = (weights[n_lights], weights[n_lights + 1], weights[n_lights + 2],
+                                       weights[n_lights + 3], weights[n_lights + 4], weights[n_lights + 5])
+    S = np.empty((PICKED_ROWS, BLOCK), np.float32)
     blk = np.empty((7, BLOCK), np.float32)
     dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
     buf, rb = embree.ray_buffer()
@@ -425,34 +499,12 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
         px, py, pz, nx, ny, nz = G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1]
         gx, gy, gz, bkeys = G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1]
         _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
-        for i in range(nb):
-            target[i] = uniform(bkeys[i], dim) * total[i]
-            pick[i] = ZERO
+        _draw_targets(bkeys, dim, nb, total, target, pick, u1, u2, u3)
         for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
             for i in range(nb):
                 pick[i] += ONE if w[k, i] <= target[i] else ZERO
-        for b in range(nb):
-            k = int(pick[b])
-            wk = w[k, b] - (w[k - 1, b] if k > 0 else ZERO)
-            prob = wk / total[b] if total[b] > ZERO else ZERO
-            inv = ONE / prob if prob > ZERO else ZERO
-            key = bkeys[b]
-            u1, u2, u3 = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
-            if k < count_analytic:
-                if kind[k] == 2:
-                    x, y, z = _sun(-ldir[k, 0], -ldir[k, 1], -ldir[k, 2], cos_ang[k], u1, u2)
-                    dist, att = far, ONE
-                else:
-                    x, y, z, dist, att = _towards(k, px[b], py[b], pz[b], kind[k] == 1, lpos, ldir, cos_out,
-                                                  spot_scale)
-                att *= inv
-                ex, ey, ez = lrad[k, 0] * att, lrad[k, 1] * att, lrad[k, 2] * att
-            else:
-                c = k - count_analytic
-                x, y, z, dist, ex, ey, ez = _emitter(start[c], start[c + 1], px[b], py[b], pz[b], u1, u2, u3, rows,
-                                                     keep, alias)
-                ex, ey, ez = ex * inv, ey * inv, ez * inv
-            _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
+        _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
+        _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
         if scene:
             m += _trace_add(G, g0, b0, nb, blk, eps, far, scene, buf, words, rb, acc, True)
         else:
