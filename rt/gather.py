@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rt.kernels import environment
+from rt.kernels import environment_rgb, environment_terms
 
 INV_PI = np.float32(1 / np.pi)
 
@@ -30,14 +30,18 @@ def env_args(environment) -> tuple:
 def split_hits(prim, m, dirs, owner, out, env_kind, env_color, horizon, zenith, ground, sel):
     """sel[:k] = the rays j < m that hit something (returns k); a ray that missed adds the
     environment's radiance along dirs[j] to out[owner[j]] (kinds as env_args)."""
+    terms = environment_terms(env_kind, env_color, horizon, zenith, ground)
     k = 0
     for j in range(m):
-        if prim[j] >= 0:
-            sel[k] = j
-            k += 1
-        elif env_kind != 0:
-            for a in range(3):
-                out[owner[j], a] += environment(dirs[j, 1], a, env_kind, env_color, horizon, zenith, ground)
+        hit = prim[j] >= 0
+        sel[k] = j  # branch-free: kept by moving on
+        k += hit
+        if not hit and env_kind != 0:
+            r, g, b = environment_rgb(dirs[j, 1], terms)
+            i = owner[j]
+            out[i, 0] += r
+            out[i, 1] += g
+            out[i, 2] += b
     return k
 
 

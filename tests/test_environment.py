@@ -1,0 +1,41 @@
+"""The environment's radiance as the CPU kernels compute it (background pixels, missed rays)
+against the analytic sky of scenes/model.py, which the raster shaders share."""
+import numpy as np
+import pytest
+
+from rt import gather, kernels
+from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH, sky_radiance
+
+
+def _env(kind, color):
+    return kind, np.asarray(color, np.float32), SKY_HORIZON, SKY_ZENITH, SKY_GROUND
+
+
+def _dirs(n, seed=2):
+    d = np.random.default_rng(seed).normal(size=(n, 3)).astype(np.float32)
+    d[:4] = [[0, 1, 0], [0, -1, 0], [1, 0, 0], [0, 1e-9, 1]]  # zenith, nadir, the horizon from both sides
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("kind, color", [(0, (2.0, 0, 0)), (1, (0.2, 0.3, 0.4)), (2, (1.7, 0, 0))])
+def test_background_pixels_get_the_environment_and_covered_ones_zero(kind, color):
+    d = _dirs(999)
+    covered = np.random.default_rng(1).random(len(d)) < 0.4
+    out = np.full((len(d), 3), 7.0, np.float32)
+    kernels.background_fill(out, d, covered, *_env(kind, color))
+    want = {0: np.zeros((len(d), 3)), 1: np.tile(color, (len(d), 1)), 2: sky_radiance(d[:, 1:2]) * color[0]}[kind]
+    want[covered] = 0
+    np.testing.assert_allclose(out, want, rtol=1e-5, atol=1e-7)
+
+
+def test_missed_rays_add_the_sky_to_their_points_and_hits_are_listed():
+    d = _dirs(500, seed=4)
+    prim = np.where(np.random.default_rng(5).random(len(d)) < 0.5, 3, -1).astype(np.int32)
+    owner = np.random.default_rng(6).integers(0, 40, len(d)).astype(np.int32)
+    out = np.zeros((40, 3), np.float32)
+    sel = np.zeros(len(d), np.int64)
+    k = gather.split_hits(prim, len(d), d, owner, out, *_env(2, (1.5, 0, 0)), sel)
+    assert list(sel[:k]) == list(np.flatnonzero(prim >= 0))
+    want = np.zeros((40, 3))
+    np.add.at(want, owner[prim < 0], sky_radiance(d[prim < 0, 1:2]) * 1.5)
+    np.testing.assert_allclose(out, want, rtol=1e-5, atol=1e-6)
