@@ -47,20 +47,25 @@ def ambient_occlusion(cf) -> np.ndarray:
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
 def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, out, ao_image):
-    """The whole AO pass in one call: blocks of points split among workers (raygen.frame_blocks), each
+    """The whole AO pass in one call: blocks of points split among workers (raygen.next_block), each
     sampling, tracing and counting its rays as ambient_occlusion does (the same numbers) and
     writing its pixels. Returns the rays traced."""
     n = keys.shape[0]
-    traced = 0
-    for w in prange(workers):
-        for b0, b1 in raygen.frame_blocks(n, w, workers):
+    size = raygen.block_size(n, workers)
+    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
+    traced = np.zeros(workers, np.int64)  # by each worker (a sum across prange would need a fixed trip count)
+    for w in prange(workers):  # each takes blocks until none is left
+        while True:
+            b0, b1 = raygen.next_block(counter, n, size)
+            if b0 >= n:
+                break
             o, d, t, _, idx = raygen.no_rays()
             count = np.zeros(b1 - b0, np.float32)
             acc = count.reshape((b1 - b0, 1))
             for r in range(rays):
-                traced += raygen.hemisphere_live(G, b0, keys[b0:b1], 2 * r, eps, radius, o, d, t, idx, scene, acc)
+                traced[w] += raygen.hemisphere_live(G, b0, keys[b0:b1], 2 * r, eps, radius, o, d, t, idx, scene, acc)
             gather.write_ao(out, ao_image, pix[b0:b1], count, rays, albedo[b0:b1], grey)
-    return traced
+    return traced.sum()
 
 
 class AOPass:

@@ -70,12 +70,11 @@ def indirect_light(cf, s, rng, G=None) -> np.ndarray:
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
 def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, out, indirect_image):
     """The whole GI pass (shadowed, one bounce) in one call: blocks of points split among
-    workers (raygen.frame_blocks), each doing what a chunk does (the same numbers, in the same
+    workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
     hit, the hit's shading and its own light sample, and the pixels written. Returns the rays
     traced. env: gather.env_args; mesh: what SceneData.surface shades hits with."""
     n = keys.shape[0]
-    traced = 0
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
@@ -83,14 +82,20 @@ def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, em
     n_lights = lights[3]
     env_kind, env_color, horizon, zenith, ground = env
     corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
-    for w in prange(workers):
+    size = raygen.block_size(n, workers)
+    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
+    traced = np.zeros(workers, np.int64)  # by each worker (a sum across prange would need a fixed trip count)
+    for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
-        for b0, b1 in raygen.frame_blocks(n, w, workers):
+        while True:
+            b0, b1 = raygen.next_block(counter, n, size)
+            if b0 >= n:
+                break
             nb = b1 - b0
             kb = keys[b0:b1]
             direct = np.empty((nb, 3), np.float32)
-            traced += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, direct)
+            traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, direct)
             total = np.zeros((nb, 3), np.float32)
             o, d, t, owner = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
                               np.empty(nb, np.float32), np.empty(nb, np.int32))
@@ -116,7 +121,7 @@ def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, em
                 hg = np.empty((9, k), np.float32)
                 raygen.surface_soa(P[:k], N[:k], NG[:k], hg)
                 hdirect = np.empty((k, 3), np.float32)
-                traced += m + raygen.direct_block(hg, 0, hkeys[:k], ls, True, 6 + 6 * r, eps, far, scene, hdirect)
+                traced[w] += m + raygen.direct_block(hg, 0, hkeys[:k], ls, True, 6 + 6 * r, eps, far, scene, hdirect)
                 gather.add_bounce(bounce, owner, hits, k, alb[:k], hdirect, None)
                 for j in range(nb):
                     for a in range(3):
@@ -129,7 +134,7 @@ def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, em
             for j in range(nb):
                 p = pix[b0 + j]
                 indirect_image[p, 0], indirect_image[p, 1], indirect_image[p, 2] = total[j, 0], total[j, 1], total[j, 2]
-    return traced
+    return traced.sum()
 
 
 class GIPass:

@@ -48,6 +48,23 @@ def prefetch_row(typingctx, array, row):
     return nbtypes.void(array, row), codegen
 
 
+@intrinsic
+def take_next(typingctx, counter):
+    """counter[0] += 1 atomically, returning the value before: how the threads of a parallel
+    kernel share out work items, each taking the next one when it is free (LLVM atomicrmw)."""
+    if not isinstance(counter, nbtypes.Array) or counter.dtype != nbtypes.int64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        ary = context.make_array(aty)(context, builder, args[0])
+        zero = context.get_constant(nbtypes.intp, 0)
+        ptr = cgutils.get_item_pointer(context, builder, aty, ary, [zero] * aty.ndim, wraparound=False)
+        return builder.atomic_rmw("add", ptr, ir.Constant(ir.IntType(64), 1), "monotonic")
+
+    return nbtypes.int64(counter), codegen
+
+
 AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (2-core machine:
 # 54-96 -> 31-52 ns a hit on three scenes' bounce hits; 4 and 16 ahead gained less)
 

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from rt import embree
-from rt.kernels import uniform
+from rt.kernels import take_next, uniform
 
 F = np.float32
 ZERO, HALF, ONE, TWO = F(0.0), F(0.5), F(1.0), F(2.0)
@@ -61,7 +61,7 @@ def offset(eps, px, py, pz):
 
 
 NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (0)
-FRAME_BLOCK = 2048, 32768  # fewest and most points per work item of the whole-frame kernels (frame_blocks)
+FRAME_BLOCK = 2048, 32768  # fewest and most points per work item of the whole-frame kernels (block_size)
 BLOCKS_PER_WORKER = 8
 RUN = 256  # points per step: a vectorised loop fills the step's rays, a short serial one packs them
 
@@ -531,21 +531,25 @@ def add_open(count, idx, blocked, m):
 
 
 @njit(cache=True, error_model="numpy")
-def frame_blocks(n, worker, workers):
-    """The blocks of points out of n that a whole-frame kernel's worker takes: every
-    workers-th, from its own number on. Interleaved, so that each worker gets its share of sky
-    and of detail (2-core machine, park AO: halves of the image took 55 ms, interleaved blocks
-    34; numba's dynamic scheduling did not help), while the workers trace neighbouring blocks
-    at the same time, which share the BVH's nodes in the cache. BLOCKS_PER_WORKER blocks each,
-    within FRAME_BLOCK's bounds: a pass's steps run a block at a time, and larger blocks keep
+def block_size(n, workers):
+    """Points per work item of the whole-frame kernels: n / (BLOCKS_PER_WORKER x workers),
+    within FRAME_BLOCK's bounds. A pass's steps run a block at a time, and larger blocks keep
     each step's data (the BVH while tracing, mesh rows while shading) in the cache longer
     (2-core machine, GI at 1280x720: 2048-point blocks ran 2-12 % slower than the chunked
     path, whose steps each cover a thread's whole share; 32768-point blocks 4-8 % faster)."""
-    size = min(max(n // (workers * BLOCKS_PER_WORKER), FRAME_BLOCK[0]), FRAME_BLOCK[1])
-    blocks = []
-    for block in range(worker, (n + size - 1) // size, workers):
-        blocks.append((block * size, min((block + 1) * size, n)))
-    return blocks
+    return min(max(n // (workers * BLOCKS_PER_WORKER), FRAME_BLOCK[0]), FRAME_BLOCK[1])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def next_block(counter, n, size):
+    """The next block of points (b0, b1) for a whole-frame kernel's worker; b0 >= n when all
+    are taken. Workers take blocks in order as each becomes free (counter: a shared int64
+    array of one, zeroed), so a worker that drew cheap sky takes more and all finish together;
+    the blocks being traced at one time are neighbours, which share the BVH's nodes in the
+    cache. (Blocks dealt out in advance, every workers-th to each, left threads idle at the
+    end of a frame whenever their share happened to cost more.)"""
+    b0 = take_next(counter) * size
+    return b0, min(b0 + size, n)
 
 
 @njit(cache=True, error_model="numpy", inline="always")

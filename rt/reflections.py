@@ -85,14 +85,13 @@ def reflect(cf, reflection: np.ndarray | None = None) -> np.ndarray:
 def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, mesh, pix, surface, view_dir, out,
                       reflection_image):
     """The whole reflections pass (one mirror bounce) in one call: blocks of points split among
-    workers (raygen.frame_blocks), each doing what a chunk does (the same numbers, in the same
+    workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): the local colour (lit: one chosen light, shadowed), a mirror ray from each point
     smoother than thr, its closest hit shaded (lit: with its own light sample), Fresnel's blend
     and the pixels written. Returns the rays traced. env: gather.env_args; mesh: what
     SceneData.surface shades hits with; surface: the G-buffer's (p, n, ng, albedo, roughness,
     metallic, emissive)."""
     n = keys.shape[0]
-    traced = 0
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
@@ -101,15 +100,21 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
     env_kind, env_color, horizon, zenith, ground = env
     corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
     P, N, NG, albedo, rough, metal, emissive = surface
-    for w in prange(workers):
+    size = raygen.block_size(n, workers)
+    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
+    traced = np.zeros(workers, np.int64)  # by each worker (a sum across prange would need a fixed trip count)
+    for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
-        for b0, b1 in raygen.frame_blocks(n, w, workers):
+        while True:
+            b0, b1 = raygen.next_block(counter, n, size)
+            if b0 >= n:
+                break
             nb = b1 - b0
             kb = keys[b0:b1]
             local = np.empty((nb, 3), np.float32)
             if lit:
-                traced += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, local)
+                traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, local)
                 for j in range(nb):
                     for a in range(3):
                         local[j, a] *= albedo[b0 + j, a] * INV_PI
@@ -146,8 +151,8 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
                 gather.gather_keys(skeys, owner, hits, k, hkeys)
                 hg = np.empty((9, k), np.float32)
                 raygen.surface_soa(HP, HN, HNG, hg)
-                traced += raygen.direct_block(hg, 0, hkeys, ls, True, 4, eps, far, scene, hdirect)
-            traced += m
+                traced[w] += raygen.direct_block(hg, 0, hkeys, ls, True, 4, eps, far, scene, hdirect)
+            traced[w] += m
             colour = np.zeros((k, 3), np.float32)
             gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
             for i in range(k):
@@ -162,7 +167,7 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
                     out[p, a] = local[j, a] + emissive[b0 + j, a]
                 for a in range(4):
                     reflection_image[p, a] = reflection[j, a]
-    return traced
+    return traced.sum()
 
 
 class ReflectionsPass:

@@ -31,27 +31,32 @@ def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
 def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive, albedo, grey, out, direct):
-    """The whole shadows pass in one call: blocks of points split among workers (raygen.frame_blocks),
+    """The whole shadows pass in one call: blocks of points split among workers (raygen.next_block),
     each sampling, tracing and adding its shadow rays as direct_all / direct_one do (the same
     numbers) and writing its pixels. Returns the rays traced."""
     n = keys.shape[0]
-    traced = 0
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
     lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
     n_lights = lights[3]
-    for w in prange(workers):
+    size = raygen.block_size(n, workers)
+    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
+    traced = np.zeros(workers, np.int64)  # by each worker (a sum across prange would need a fixed trip count)
+    for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
-        for b0, b1 in raygen.frame_blocks(n, w, workers):
+        while True:
+            b0, b1 = raygen.next_block(counter, n, size)
+            if b0 >= n:
+                break
             total = np.empty((b1 - b0, 3), np.float32)
-            traced += raygen.direct_block(G, b0, keys[b0:b1], ls, one, 0, eps, far, scene, total)
+            traced[w] += raygen.direct_block(G, b0, keys[b0:b1], ls, one, 0, eps, far, scene, total)
             gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], total, None, grey)
             for j in range(b1 - b0):
                 p = pix[b0 + j]
                 direct[p, 0], direct[p, 1], direct[p, 2] = total[j, 0], total[j, 1], total[j, 2]
-    return traced
+    return traced.sum()
 
 
 class ShadowsPass:
