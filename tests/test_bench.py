@@ -88,13 +88,17 @@ def test_perf_measures_every_pass_thread_count_and_bvh(tmp_path):
     """`bench --perf`: efficiency per pass, scaling over repeated sweeps of the thread counts,
     BVH builds; the last printed line names the least efficient pass."""
     r = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--perf", "--quick", "--scenes", "arcade",
-                        "--perf-rounds", "2", "--out", str(tmp_path)], capture_output=True, text=True, timeout=900)
+                        "--perf-rounds", "2", "--frames", "2", "--out", str(tmp_path)], capture_output=True, text=True,
+                       timeout=900)
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "perf.json").read_text())
     passes = {row["pass"]: row for row in doc["passes"]}
     assert set(passes) == {"shadows", "ao", "gi", "reflections", "reference"}
     for row in passes.values():
         assert row["rays"] > 0 and row["raw_trace_ms"] > 0 and row["efficiency"] == row["raw_trace_ms"] / row["pass_ms"]
+        # the fastest of the frames timed, the medians kept beside them
+        assert row["pass_ms"] <= row["pass_ms_median"] and row["raw_trace_ms"] <= row["raw_trace_ms_median"]
+        assert row["efficiency_median"] == row["raw_trace_ms_median"] / row["pass_ms_median"]
     worst = min(passes.values(), key=lambda row: row["efficiency"])
     assert r.stdout.strip().splitlines()[-1].startswith(f"min efficiency = {worst['efficiency']:.2f} ({worst['pass']}")
     counts = sorted({row["threads"] for row in doc["scaling"]})
