@@ -191,6 +191,8 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     if doc.get("merged_from"):
         md += [f"Results of {len(doc['merged_from'])} bench runs on this machine, concatenated: "
                + "; ".join(f"`rtlab {m}`" for m in doc["merged_from"]) + ".", ""]
+    if doc.get("note"):  # what someone who merged or edited the results says about them
+        md += [str(doc["note"]), ""]
     sections = []
     for title, header, rows in technique_tables(doc):
         sections.append((title, header, rows))

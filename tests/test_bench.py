@@ -56,6 +56,20 @@ def test_report_renders(quick_bench):
         assert (quick_bench / plot).stat().st_size > 1000
 
 
+def test_report_names_merged_runs_and_their_note(quick_bench, tmp_path):
+    """Results concatenated from several bench runs say which, and what whoever merged them noted."""
+    from types import SimpleNamespace
+
+    doc = json.loads((quick_bench / "results.json").read_text())
+    doc["merged_from"] = ["bench --scenes arcade", "bench --scenes cafe"]
+    doc["note"] = "The arcade rows are from the first command."
+    (tmp_path / "results.json").write_text(json.dumps(doc))
+    assert run_report(SimpleNamespace(dir=str(tmp_path), budget_ms=None)) == 0
+    md = (tmp_path / "report.md").read_text()
+    assert "Results of 2 bench runs on this machine, concatenated: `rtlab bench --scenes arcade`" in md
+    assert "The arcade rows are from the first command." in md
+
+
 def row(config, ms, gain, accumulate=False):
     return {"config": config, "frame_ms": {"mean": ms}, "accumulate": accumulate, "quality": {"gain": gain}}
 
