@@ -53,7 +53,7 @@ def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, out,
     n = keys.shape[0]
     size = raygen.block_size(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
-    traced = np.zeros(workers, np.int64)  # by each worker (a sum across prange would need a fixed trip count)
+    traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
         while True:
             b0, b1 = raygen.next_block(counter, n, size)

@@ -102,7 +102,7 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
     P, N, NG, albedo, rough, metal, emissive = surface
     size = raygen.block_size(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
-    traced = np.zeros(workers, np.int64)  # by each worker (a sum across prange would need a fixed trip count)
+    traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
