@@ -375,6 +375,14 @@ def _draw_targets(keys, dim, nb, total, target, pick, u1, u2, u3):
         pick[i] = ZERO
 
 
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _draw_samples(keys, dim, nb, u1, u2, u3):
+    """_draw_targets' numbers that sample the light, for a pick that needs no target."""
+    for i in range(nb):
+        key = keys[i]
+        u1[i], u2[i], u3[i] = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
+
+
 LIGHT_ROW = 16  # what sampling a picked light needs, one row per analytic light or emitting triangle
 PICKED_ROWS = LIGHT_ROW + 2  # + 1 / the pick's probability, + is it an emitter
 
@@ -486,6 +494,13 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
     total, target, pick, u1, u2, u3 = (weights[n_lights], weights[n_lights + 1], weights[n_lights + 2],
                                        weights[n_lights + 3], weights[n_lights + 4], weights[n_lights + 5])
     S = np.empty((PICKED_ROWS, BLOCK), np.float32)
+    single = n_lights == 1 and na == 1  # the pick is that light, with probability 1, at every point
+    if single:  # its row once for every block: no weights, no pick, no gather
+        for c in range(LIGHT_ROW):
+            for b in range(BLOCK):
+                S[c, b] = table[0, c]
+        S[16, :] = ONE  # 1 / the pick's probability (where the light cannot contribute, _light_ray gives 0)
+        S[17, :] = ZERO
     blk = np.empty((7, BLOCK), np.float32)
     dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
     buf, rb = embree.ray_buffer()
@@ -498,12 +513,15 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
         nb = b1 - b0
         px, py, pz, nx, ny, nz = G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1]
         gx, gy, gz, bkeys = G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1]
-        _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
-        _draw_targets(bkeys, dim, nb, total, target, pick, u1, u2, u3)
-        for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
-            for i in range(nb):
-                pick[i] += ONE if w[k, i] <= target[i] else ZERO
-        _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
+        if single:
+            _draw_samples(bkeys, dim, nb, u1, u2, u3)
+        else:
+            _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
+            _draw_targets(bkeys, dim, nb, total, target, pick, u1, u2, u3)
+            for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
+                for i in range(nb):
+                    pick[i] += ONE if w[k, i] <= target[i] else ZERO
+            _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
         _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
         if scene:
             m += _trace_add(G, g0, b0, nb, blk, eps, far, scene, buf, words, rb, acc, True)

@@ -149,3 +149,42 @@ def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probabilit
         else:
             np.testing.assert_allclose(tmax[j] + 2 * raygen.offset(np.float32(1e-4), *P[i]), dist, rtol=1e-4)
         np.testing.assert_allclose(e[j], light * cs, rtol=2e-4, atol=1e-8)
+
+
+def _only(k):
+    """_lights() reduced to its analytic light k alone (no emitters)."""
+    analytic, _, guide = _lights()
+    one = tuple(np.ascontiguousarray(a[k:k + 1]) for a in analytic)
+    emitters = (np.array([0], np.int64), np.zeros((0, 16), np.float32), np.zeros(0, np.float32),
+                np.zeros(0, np.int32))
+    empty = np.zeros(0, np.float32)
+    return one, emitters, (*(np.ascontiguousarray(g[k:k + 1]) for g in guide[:10]), *(empty,) * 5)
+
+
+def test_a_single_light_is_sampled_as_when_picked_among_others():
+    """With one light the pick is skipped (raygen: single); the rays are those of the pick."""
+    rng = np.random.default_rng(8)
+    n = 150
+    P = rng.uniform(-2, 2, (n, 3)).astype(np.float32)
+    N = rng.normal(size=(n, 3)).astype(np.float32)
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    G = np.ascontiguousarray(np.concatenate([P.T, N.T, N.T]), np.float32)
+    keys = rng.integers(0, 2**63, n, dtype=np.int64).astype(np.uint64)
+    far, dim = 50.0, 3
+    for k in range(3):  # the point light, the spot, the sun
+        analytic, emitters, guide = _only(k)
+        weights = np.empty((1 + raygen.SCRATCH_ROWS, raygen.BLOCK), np.float32)
+        o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
+                            np.zeros((n, 3), np.float32))
+        idx = np.zeros(n, np.int32)
+        m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(1e-4),
+                                         np.float32(far), weights, o, dirs, tmax, e, idx, 0, raygen.NOT_TRACED)
+        with np.errstate(invalid="ignore"):  # 0 / 0 where the light has no weight: those carry nothing
+            ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters,
+                                      guide, far)
+        kept = [i for i, (_, direction, _, light, _) in enumerate(ref) if direction @ N[i] > 0 and light.max() > 0]
+        assert m > n // 4 and list(idx[:m]) == kept
+        for j, i in enumerate(kept):
+            _, direction, _, light, _ = ref[i]
+            np.testing.assert_allclose(dirs[j], direction, atol=2e-5)
+            np.testing.assert_allclose(e[j], light * (direction @ N[i]), rtol=2e-4, atol=1e-8)
