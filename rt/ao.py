@@ -46,11 +46,13 @@ def ambient_occlusion(cf) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, out, ao_image):
+def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, view_dir, env, out, ao_image):
     """The whole AO pass in one call: blocks of points split among workers (raygen.next_block), each
     sampling, tracing and counting its rays as ambient_occlusion does (the same numbers) and
-    writing its pixels. Returns the rays traced."""
+    writing its pixels, and the uncovered ones around them (gather.fill_uncovered; env:
+    gather.env_args). Returns the rays traced."""
     n = keys.shape[0]
+    env_kind, env_color, horizon, zenith, ground = env
     size = raygen.block_size(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
@@ -65,6 +67,8 @@ def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, out,
             for r in range(rays):
                 traced[w] += raygen.hemisphere_live(G, b0, keys[b0:b1], 2 * r, eps, radius, o, d, t, idx, scene, acc)
             gather.write_ao(out, ao_image, pix[b0:b1], count, rays, albedo[b0:b1], grey)
+            gather.fill_uncovered(out, ao_image, np.float32(1.0), pix, b0, b1, view_dir,
+                                  (env_kind, env_color, horizon, zenith, ground))
     return traced.sum()
 
 
@@ -77,15 +81,17 @@ class AOPass:
         pass
 
     def execute(self, rf) -> dict:
-        out, ao_image = rf.background(), rf.image(1, fill=1.0)
         grey, rays = rf.options.get("ao.greyscale"), rf.options.get("ao.rays_per_pixel")
         scene = rf.tracer.frame_scene()
         if scene and rf.gb.soa is not None:  # one compiled call: no Python per chunk
+            out, ao_image = rf.frame_outputs(1, fill=1.0)
             radius = np.float32(rf.options.get("ao.radius"))
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 ao_frame, rf.gb.soa, rf.frame_keys(2), rays, rf.data.eps, radius, scene, rf.gb.index,
-                rf.gb.surface.albedo, grey, out, ao_image)
+                rf.gb.surface.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, ao_image)
             return {"radiance": out, "rt_ao": ao_image}
+
+        out, ao_image = rf.background(), rf.image(1, fill=1.0)
 
         def work(cf):
             gather.write_ao(out, ao_image, cf.idx, ambient_occlusion(cf), rays, cf.s.albedo, grey)

@@ -38,6 +38,15 @@ class RtFrame:
         background_fill(out, self.gb.view_dir, self.gb.covered, *env_args(self.environment))
         return out
 
+    def frame_outputs(self, channels: int = 3, fill=0.0, name: str = "") -> tuple[np.ndarray, np.ndarray]:
+        """background() and image(channels, fill, name) for a whole-frame kernel that writes
+        every covered pixel and fills the others as it goes (gather.fill_uncovered): left
+        unfilled here, which saves two passes over the whole image before the frame. With no
+        covered pixel there is no block to fill them, so they come back filled."""
+        if len(self.gb.index) == 0:
+            return self.background(), self.image(channels, fill, name)
+        return self._buffer("background", 3), self._buffer(f"image{channels}{name}", channels)
+
     def for_chunks(self, work, streams: tuple = ()) -> None:
         """work(ChunkFrame) for runs of covered pixels, on the tracer's threads (chunks sized by
         what the same work, named by its qualified name, cost in the last frame).

@@ -65,6 +65,34 @@ def add_bounce(out, owner, sel, k, albedo, direct, inner):
             out[p, a] += albedo[i, a] * light
 
 
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _fill_run(out, aux, aux_fill, view_dir, terms, p0, p1):
+    for p in range(p0, p1):
+        r, g, b = environment_rgb(view_dir[p, 1], terms)
+        out[p, 0], out[p, 1], out[p, 2] = r, g, b
+        for a in range(aux.shape[1]):
+            aux[p, a] = aux_fill
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def fill_uncovered(out, aux, aux_fill, pix, b0, b1, view_dir, env):
+    """The pixels that no covered point of b0..b1 owns, in the run of the image from just
+    after the previous block's last pixel to this block's last (to the image's end for the
+    last block), so that a whole-frame kernel's blocks share out the whole image: out gets the
+    environment's radiance (kinds as env_args), every channel of aux gets aux_fill (what
+    RtFrame.background and RtFrame.image fill in, done here by the worker that writes the
+    covered pixels around them, instead of two passes over the whole image before the frame)."""
+    kind, color, horizon, zenith, ground = env
+    terms = environment_terms(kind, color, horizon, zenith, ground)
+    n = pix.shape[0]
+    p = pix[b0 - 1] + 1 if b0 > 0 else 0
+    for j in range(b0, b1):
+        _fill_run(out, aux, aux_fill, view_dir, terms, p, pix[j])
+        p = pix[j] + 1
+    if b1 == n:
+        _fill_run(out, aux, aux_fill, view_dir, terms, p, out.shape[0])
+
+
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def write_lit(out, pix, emissive, albedo, direct, extra, grey):
     """out[pix[j]] = emissive + albedo x (direct / pi + extra); grey: albedo 1, no emission;

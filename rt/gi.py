@@ -68,12 +68,13 @@ def indirect_light(cf, s, rng, G=None) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, out, indirect_image):
+def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, view_dir, out,
+             indirect_image):
     """The whole GI pass (shadowed, one bounce) in one call: blocks of points split among
     workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
-    hit, the hit's shading and its own light sample, and the pixels written. Returns the rays
-    traced. env: gather.env_args; mesh: what SceneData.surface shades hits with."""
+    hit, the hit's shading and its own light sample, and the pixels written, with the uncovered
+    ones around them (gather.fill_uncovered). Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits with."""
     n = keys.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
@@ -134,6 +135,8 @@ def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, em
             for j in range(nb):
                 p = pix[b0 + j]
                 indirect_image[p, 0], indirect_image[p, 1], indirect_image[p, 2] = total[j, 0], total[j, 1], total[j, 2]
+            gather.fill_uncovered(out, indirect_image, np.float32(0.0), pix, b0, b1, view_dir,
+                                  (env_kind, env_color, horizon, zenith, ground))
     return traced.sum()
 
 
@@ -146,16 +149,18 @@ class GIPass:
         pass
 
     def execute(self, rf) -> dict:
-        out, indirect_image = rf.background(), rf.image()
         shadowed = rf.options.get("gi.shadows")
         scene = rf.tracer.frame_scene()
         if scene and shadowed and rf.options.get("gi.bounces") == 1 and rf.gb.soa is not None:
+            out, indirect_image = rf.frame_outputs()
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 gi_frame, rf.gb.soa, rf.frame_keys(4), rf.options.get("gi.rays_per_pixel"), data.lights.kernel_args,
                 data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args, rf.gb.index, s.emissive,
-                s.albedo, out, indirect_image)
+                s.albedo, rf.gb.view_dir, out, indirect_image)
             return {"radiance": out, "rt_indirect": indirect_image}
+
+        out, indirect_image = rf.background(), rf.image()
 
         def work(cf):
             s, rng = cf.s, cf.rng(4)

@@ -88,7 +88,8 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
     workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): the local colour (lit: one chosen light, shadowed), a mirror ray from each point
     smoother than thr, its closest hit shaded (lit: with its own light sample), Fresnel's blend
-    and the pixels written. Returns the rays traced. env: gather.env_args; mesh: what
+    and the pixels written, with the uncovered ones around them (gather.fill_uncovered).
+    Returns the rays traced. env: gather.env_args; mesh: what
     SceneData.surface shades hits with; surface: the G-buffer's (p, n, ng, albedo, roughness,
     metallic, emissive)."""
     n = keys.shape[0]
@@ -167,6 +168,8 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
                     out[p, a] = local[j, a] + emissive[b0 + j, a]
                 for a in range(4):
                     reflection_image[p, a] = reflection[j, a]
+            gather.fill_uncovered(out, reflection_image, np.float32(0.0), pix, b0, b1, view_dir,
+                                  (env_kind, env_color, horizon, zenith, ground))
     return traced.sum()
 
 
@@ -179,9 +182,9 @@ class ReflectionsPass:
         pass
 
     def execute(self, rf) -> dict:
-        out, reflection_image = rf.background(), rf.image(4)
         scene = rf.tracer.frame_scene()
         if scene and rf.options.get("reflections.max_depth") == 1 and rf.gb.soa is not None:
+            out, reflection_image = rf.frame_outputs(4)
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 reflections_frame, rf.gb.soa, rf.frame_keys(3),
@@ -190,6 +193,8 @@ class ReflectionsPass:
                 rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
                 reflection_image)
             return {"radiance": out, "rt_reflection": reflection_image}
+
+        out, reflection_image = rf.background(), rf.image(4)
 
         def work(cf):
             reflection = scratch.buffer("refl.rgba", (len(cf.s), 4))

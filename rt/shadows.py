@@ -30,16 +30,19 @@ def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive, albedo, grey, out, direct):
+def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive, albedo, grey, view_dir, env, out,
+                  direct):
     """The whole shadows pass in one call: blocks of points split among workers (raygen.next_block),
     each sampling, tracing and adding its shadow rays as direct_all / direct_one do (the same
-    numbers) and writing its pixels. Returns the rays traced."""
+    numbers) and writing its pixels, and the uncovered ones around them (gather.fill_uncovered;
+    env: gather.env_args). Returns the rays traced."""
     n = keys.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
     lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
     n_lights = lights[3]
+    env_kind, env_color, horizon, zenith, ground = env
     size = raygen.block_size(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
@@ -56,6 +59,8 @@ def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive,
             for j in range(b1 - b0):
                 p = pix[b0 + j]
                 direct[p, 0], direct[p, 1], direct[p, 2] = total[j, 0], total[j, 1], total[j, 2]
+            gather.fill_uncovered(out, direct, np.float32(0.0), pix, b0, b1, view_dir,
+                                  (env_kind, env_color, horizon, zenith, ground))
     return traced.sum()
 
 
@@ -68,16 +73,18 @@ class ShadowsPass:
         pass
 
     def execute(self, rf) -> dict:
-        out, direct = rf.background(), rf.image()
         grey = rf.options.get("shadows.greyscale")
         scene = rf.tracer.frame_scene()
         if scene and rf.gb.soa is not None:  # one compiled call: no Python per chunk
+            out, direct = rf.frame_outputs()
             s, data = rf.gb.surface, rf.data
             one = rf.options.get("shadows.lights") == "one"
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 shadows_frame, rf.gb.soa, rf.frame_keys(1), data.lights.kernel_args, one, data.eps, data.far, scene,
-                rf.gb.index, s.emissive, s.albedo, grey, out, direct)
+                rf.gb.index, s.emissive, s.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, direct)
             return {"radiance": out, "rt_direct": direct}
+
+        out, direct = rf.background(), rf.image()
 
         def work(cf):
             e = direct_irradiance(cf)

@@ -39,3 +39,22 @@ def test_missed_rays_add_the_sky_to_their_points_and_hits_are_listed():
     want = np.zeros((40, 3))
     np.add.at(want, owner[prim < 0], sky_radiance(d[prim < 0, 1:2]) * 1.5)
     np.testing.assert_allclose(out, want, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("first, last", [(True, True), (False, True), (True, False), (False, False)])
+def test_blocks_fill_every_uncovered_pixel_once_between_them(first, last):
+    """gather.fill_uncovered: the whole-frame kernels' blocks of covered points, each filling
+    the uncovered pixels up to its last one, fill every uncovered pixel with the environment
+    (and aux's channels with aux_fill), whether or not the image starts or ends covered."""
+    rng = np.random.default_rng(7)
+    d = _dirs(2000, seed=9)
+    covered = rng.random(len(d)) < 0.6
+    covered[0], covered[-1] = first, last
+    pix = np.flatnonzero(covered)
+    out, aux = np.full((len(d), 3), -5.0, np.float32), np.full((len(d), 4), -5.0, np.float32)
+    cuts = [0, *sorted(rng.choice(np.arange(1, len(pix)), 6, replace=False)), len(pix)]
+    for b0, b1 in zip(cuts[1:][::-1], cuts[:-1][::-1]):  # blocks in any order
+        gather.fill_uncovered(out, aux, np.float32(0.25), pix, b1, b0, d, _env(2, (1.3, 0, 0)))
+    np.testing.assert_allclose(out[~covered], sky_radiance(d[~covered, 1:2]) * 1.3, rtol=1e-5, atol=1e-7)
+    assert (aux[~covered] == 0.25).all()
+    assert (out[covered] == -5).all() and (aux[covered] == -5).all()  # the blocks' own pixels: the passes'
