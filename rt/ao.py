@@ -46,12 +46,12 @@ def ambient_occlusion(cf) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, view_dir, env, out, ao_image):
+def ao_frame(workers, G, base, rays, eps, radius, scene, pix, albedo, grey, view_dir, env, out, ao_image):
     """The whole AO pass in one call: blocks of points split among workers (raygen.next_block), each
     sampling, tracing and counting its rays as ambient_occlusion does (the same numbers) and
     writing its pixels, and the uncovered ones around them (gather.fill_uncovered; env:
     gather.env_args). Returns the rays traced."""
-    n = keys.shape[0]
+    n = pix.shape[0]
     env_kind, env_color, horizon, zenith, ground = env
     size = raygen.block_size(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
@@ -62,10 +62,11 @@ def ao_frame(workers, G, keys, rays, eps, radius, scene, pix, albedo, grey, view
             if b0 >= n:
                 break
             o, d, t, _, idx = raygen.no_rays()
+            kb = raygen.block_keys(pix, b0, b1, base)
             count = np.zeros(b1 - b0, np.float32)
             acc = count.reshape((b1 - b0, 1))
             for r in range(rays):
-                traced[w] += raygen.hemisphere_live(G, b0, keys[b0:b1], 2 * r, eps, radius, o, d, t, idx, scene, acc)
+                traced[w] += raygen.hemisphere_live(G, b0, kb, 2 * r, eps, radius, o, d, t, idx, scene, acc)
             gather.write_ao(out, ao_image, pix[b0:b1], count, rays, albedo[b0:b1], grey)
             gather.fill_uncovered(out, ao_image, np.float32(1.0), pix, b0, b1, view_dir,
                                   (env_kind, env_color, horizon, zenith, ground))
@@ -87,7 +88,7 @@ class AOPass:
             out, ao_image = rf.frame_outputs(1, fill=1.0)
             radius = np.float32(rf.options.get("ao.radius"))
             rf.tracer.rays_traced += rf.tracer.run_parallel(
-                ao_frame, rf.gb.soa, rf.frame_keys(2), rays, rf.data.eps, radius, scene, rf.gb.index,
+                ao_frame, rf.gb.soa, rf.key_base(2), rays, rf.data.eps, radius, scene, rf.gb.index,
                 rf.gb.surface.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, ao_image)
             return {"radiance": out, "rt_ao": ao_image}
 

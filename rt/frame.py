@@ -58,9 +58,12 @@ class RtFrame:
         self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)),
                                key=getattr(work, "__qualname__", None))
 
-    def frame_keys(self, stream: int) -> np.ndarray:
-        """Every covered pixel's key for a random stream (the keys ChunkFrame.rng hands out)."""
-        return self.keys.setdefault(stream, self._keys(stream))
+    def key_base(self, stream: int) -> np.uint64:
+        """What the pixels' keys for a random stream hash their ids with (raygen.block_keys: the
+        whole-frame kernels make each block's keys from it)."""
+        from rt.sampling import key_base
+
+        return key_base(self.seed, self.index, stream)
 
     def _keys(self, stream: int) -> np.ndarray:
         n = len(self.gb.index)

@@ -68,14 +68,14 @@ def indirect_light(cf, s, rng, G=None) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, view_dir, out,
+def gi_frame(workers, G, base, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, view_dir, out,
              indirect_image):
     """The whole GI pass (shadowed, one bounce) in one call: blocks of points split among
     workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
     hit, the hit's shading and its own light sample, and the pixels written, with the uncovered
     ones around them (gather.fill_uncovered). Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits with."""
-    n = keys.shape[0]
+    n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
@@ -94,7 +94,7 @@ def gi_frame(workers, G, keys, rays, lights, eps, far, scene, env, mesh, pix, em
             if b0 >= n:
                 break
             nb = b1 - b0
-            kb = keys[b0:b1]
+            kb = raygen.block_keys(pix, b0, b1, base)
             direct = np.empty((nb, 3), np.float32)
             traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, direct)
             total = np.zeros((nb, 3), np.float32)
@@ -155,7 +155,7 @@ class GIPass:
             out, indirect_image = rf.frame_outputs()
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
-                gi_frame, rf.gb.soa, rf.frame_keys(4), rf.options.get("gi.rays_per_pixel"), data.lights.kernel_args,
+                gi_frame, rf.gb.soa, rf.key_base(4), rf.options.get("gi.rays_per_pixel"), data.lights.kernel_args,
                 data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args, rf.gb.index, s.emissive,
                 s.albedo, rf.gb.view_dir, out, indirect_image)
             return {"radiance": out, "rt_indirect": indirect_image}

@@ -84,11 +84,17 @@ def uniform(key, dim):
     return np.float32(h >> np.uint64(40)) * np.float32(1.0 / 16777216.0)
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def pixel_key(pixel, base):
+    """A pixel's generator key: a hash of its id and the frame's base key (sampling.key_base)."""
+    return mix64(np.uint64(pixel) * GOLDEN + base)
+
+
 @njit(cache=True, error_model="numpy", parallel=True)
 def pixel_keys(pixels, base, out):
-    """Each pixel's generator key: a hash of its id and the frame's base key."""
+    """Each pixel's generator key (pixel_key)."""
     for i in prange(pixels.shape[0]):
-        out[i] = mix64(np.uint64(pixels[i]) * GOLDEN + base)
+        out[i] = pixel_key(pixels[i], base)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)

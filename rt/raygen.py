@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from rt import embree
-from rt.kernels import take_next, uniform
+from rt.kernels import pixel_key, take_next, uniform
 
 F = np.float32
 ZERO, HALF, ONE, TWO = F(0.0), F(0.5), F(1.0), F(2.0)
@@ -568,6 +568,17 @@ def next_block(counter, n, size):
     end of a frame whenever their share happened to cost more.)"""
     b0 = take_next(counter) * size
     return b0, min(b0 + size, n)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def block_keys(pix, b0, b1, base):
+    """The keys of a whole-frame kernel's block of points (pixels pix[b0:b1]), made by the
+    worker that uses them (base: RtFrame.key_base): a pass over every pixel before the frame,
+    and the keys' round trip through memory, saved."""
+    keys = np.empty(b1 - b0, np.uint64)
+    for j in range(b1 - b0):
+        keys[j] = pixel_key(pix[b0 + j], base)
+    return keys
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -82,7 +82,7 @@ def reflect(cf, reflection: np.ndarray | None = None) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, mesh, pix, surface, view_dir, out,
+def reflections_frame(workers, G, base, thr, lit, lights, eps, far, scene, env, mesh, pix, surface, view_dir, out,
                       reflection_image):
     """The whole reflections pass (one mirror bounce) in one call: blocks of points split among
     workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
@@ -92,7 +92,7 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
     Returns the rays traced. env: gather.env_args; mesh: what
     SceneData.surface shades hits with; surface: the G-buffer's (p, n, ng, albedo, roughness,
     metallic, emissive)."""
-    n = keys.shape[0]
+    n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
@@ -112,7 +112,7 @@ def reflections_frame(workers, G, keys, thr, lit, lights, eps, far, scene, env, 
             if b0 >= n:
                 break
             nb = b1 - b0
-            kb = keys[b0:b1]
+            kb = raygen.block_keys(pix, b0, b1, base)
             local = np.empty((nb, 3), np.float32)
             if lit:
                 traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, local)
@@ -187,7 +187,7 @@ class ReflectionsPass:
             out, reflection_image = rf.frame_outputs(4)
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
-                reflections_frame, rf.gb.soa, rf.frame_keys(3),
+                reflections_frame, rf.gb.soa, rf.key_base(3),
                 np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
                 data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
                 rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,

@@ -20,6 +20,13 @@ def _mix(x: np.ndarray) -> np.ndarray:
         return x ^ (x >> np.uint64(31))
 
 
+def key_base(seed: int, frame: int, stream: int) -> np.uint64:
+    """What a pixel's key hashes its id with (kernels.pixel_key): one per seed, frame and stream."""
+    with np.errstate(over="ignore"):
+        return _mix(np.uint64(seed & 0xFFFFFFFF) * _GOLDEN + np.uint64(frame & 0xFFFFFFFF)
+                    + np.uint64(stream) * np.uint64(0x632BE59BD9B4E019))
+
+
 class PixelRng:
     """Uniform numbers in [0,1) per pixel; `next(k)` returns k fresh dimensions."""
 
@@ -27,9 +34,7 @@ class PixelRng:
         """out: a (len(pixels),) uint64 array to hold the keys (a reused buffer), else a new one."""
         from rt.kernels import pixel_keys
 
-        with np.errstate(over="ignore"):
-            base = _mix(np.uint64(seed & 0xFFFFFFFF) * _GOLDEN + np.uint64(frame & 0xFFFFFFFF)
-                        + np.uint64(stream) * np.uint64(0x632BE59BD9B4E019))
+        base = key_base(seed, frame, stream)
         self.key = np.empty(pixels.shape[0], np.uint64) if out is None else out
         if pixels.shape[0]:
             pixel_keys(np.ascontiguousarray(pixels, np.int64), base, self.key)

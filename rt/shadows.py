@@ -30,13 +30,13 @@ def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive, albedo, grey, view_dir, env, out,
+def shadows_frame(workers, G, base, lights, one, eps, far, scene, pix, emissive, albedo, grey, view_dir, env, out,
                   direct):
     """The whole shadows pass in one call: blocks of points split among workers (raygen.next_block),
     each sampling, tracing and adding its shadow rays as direct_all / direct_one do (the same
     numbers) and writing its pixels, and the uncovered ones around them (gather.fill_uncovered;
     env: gather.env_args). Returns the rays traced."""
-    n = keys.shape[0]
+    n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
     start, rows, keep, alias = lights[1]
@@ -54,7 +54,7 @@ def shadows_frame(workers, G, keys, lights, one, eps, far, scene, pix, emissive,
             if b0 >= n:
                 break
             total = np.empty((b1 - b0, 3), np.float32)
-            traced[w] += raygen.direct_block(G, b0, keys[b0:b1], ls, one, 0, eps, far, scene, total)
+            traced[w] += raygen.direct_block(G, b0, raygen.block_keys(pix, b0, b1, base), ls, one, 0, eps, far, scene, total)
             gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], total, None, grey)
             for j in range(b1 - b0):
                 p = pix[b0 + j]
@@ -80,7 +80,7 @@ class ShadowsPass:
             s, data = rf.gb.surface, rf.data
             one = rf.options.get("shadows.lights") == "one"
             rf.tracer.rays_traced += rf.tracer.run_parallel(
-                shadows_frame, rf.gb.soa, rf.frame_keys(1), data.lights.kernel_args, one, data.eps, data.far, scene,
+                shadows_frame, rf.gb.soa, rf.key_base(1), data.lights.kernel_args, one, data.eps, data.far, scene,
                 rf.gb.index, s.emissive, s.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, direct)
             return {"radiance": out, "rt_direct": direct}
 

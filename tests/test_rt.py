@@ -414,4 +414,9 @@ def test_frame_keys_are_each_chunks_own(gl):
     assert len(seen) > 1 and 2 in rf.keys
     for c, keys, dim in seen.values():
         assert np.array_equal(keys, PixelRng(7, 3, gb.index[c], 2).key) and dim == 0
+    from rt import raygen
+
+    # and the keys that whole-frame kernels make block by block
+    assert np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(2)), PixelRng(7, 3, gb.index[5:70], 2).key)
+    assert not np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(3)), PixelRng(7, 3, gb.index[5:70], 2).key)
     r.release()
