@@ -74,7 +74,8 @@ def gi_frame(workers, G, base, rays, lights, eps, far, scene, env, mesh, pix, em
     workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
     hit, the hit's shading and its own light sample, and the pixels written, with the uncovered
-    ones around them (gather.fill_uncovered). Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits with."""
+    ones around them (gather.fill_uncovered). Returns the rays traced. env: gather.env_args;
+    mesh: what SceneData.surface shades hits with."""
     n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]

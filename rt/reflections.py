@@ -89,9 +89,8 @@ def reflections_frame(workers, G, base, thr, lit, lights, eps, far, scene, env, 
     order): the local colour (lit: one chosen light, shadowed), a mirror ray from each point
     smoother than thr, its closest hit shaded (lit: with its own light sample), Fresnel's blend
     and the pixels written, with the uncovered ones around them (gather.fill_uncovered).
-    Returns the rays traced. env: gather.env_args; mesh: what
-    SceneData.surface shades hits with; surface: the G-buffer's (p, n, ng, albedo, roughness,
-    metallic, emissive)."""
+    Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits
+    with; surface: the G-buffer's (p, n, ng, albedo, roughness, metallic, emissive)."""
     n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]

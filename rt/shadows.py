@@ -54,7 +54,8 @@ def shadows_frame(workers, G, base, lights, one, eps, far, scene, pix, emissive,
             if b0 >= n:
                 break
             total = np.empty((b1 - b0, 3), np.float32)
-            traced[w] += raygen.direct_block(G, b0, raygen.block_keys(pix, b0, b1, base), ls, one, 0, eps, far, scene, total)
+            kb = raygen.block_keys(pix, b0, b1, base)
+            traced[w] += raygen.direct_block(G, b0, kb, ls, one, 0, eps, far, scene, total)
             gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], total, None, grey)
             for j in range(b1 - b0):
                 p = pix[b0 + j]

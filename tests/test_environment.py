@@ -53,8 +53,9 @@ def test_blocks_fill_every_uncovered_pixel_once_between_them(first, last):
     pix = np.flatnonzero(covered)
     out, aux = np.full((len(d), 3), -5.0, np.float32), np.full((len(d), 4), -5.0, np.float32)
     cuts = [0, *sorted(rng.choice(np.arange(1, len(pix)), 6, replace=False)), len(pix)]
-    for b0, b1 in zip(cuts[1:][::-1], cuts[:-1][::-1]):  # blocks in any order
-        gather.fill_uncovered(out, aux, np.float32(0.25), pix, b1, b0, d, _env(2, (1.3, 0, 0)))
+    blocks = list(zip(cuts[:-1], cuts[1:], strict=True))
+    for b0, b1 in blocks[::-1]:  # blocks in any order
+        gather.fill_uncovered(out, aux, np.float32(0.25), pix, b0, b1, d, _env(2, (1.3, 0, 0)))
     np.testing.assert_allclose(out[~covered], sky_radiance(d[~covered, 1:2]) * 1.3, rtol=1e-5, atol=1e-7)
     assert (aux[~covered] == 0.25).all()
     assert (out[covered] == -5).all() and (aux[covered] == -5).all()  # the blocks' own pixels: the passes'
