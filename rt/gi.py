@@ -68,9 +68,9 @@ def indirect_light(cf, s, rng, G=None) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def gi_frame(workers, G, base, rays, lights, eps, far, scene, env, mesh, pix, emissive, albedo, view_dir, out,
+def gi_frame(workers, G, base, rays, shadowed, lights, eps, far, scene, env, mesh, pix, emissive, albedo, view_dir, out,
              indirect_image):
-    """The whole GI pass (shadowed, one bounce) in one call: blocks of points split among
+    """The whole GI pass (one bounce; shadowed or not) in one call: blocks of points split among
     workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
     order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
     hit, the hit's shading and its own light sample, and the pixels written, with the uncovered
@@ -84,6 +84,7 @@ def gi_frame(workers, G, base, rays, lights, eps, far, scene, env, mesh, pix, em
     n_lights = lights[3]
     env_kind, env_color, horizon, zenith, ground = env
     corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
+    lit_scene = scene if shadowed else 0  # 0: direct light unshadowed (raygen.direct_block)
     size = raygen.block_size(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
@@ -97,7 +98,7 @@ def gi_frame(workers, G, base, rays, lights, eps, far, scene, env, mesh, pix, em
             nb = b1 - b0
             kb = raygen.block_keys(pix, b0, b1, base)
             direct = np.empty((nb, 3), np.float32)
-            traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, direct)
+            traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, lit_scene, direct)
             total = np.zeros((nb, 3), np.float32)
             o, d, t, owner = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
                               np.empty(nb, np.float32), np.empty(nb, np.int32))
@@ -123,7 +124,8 @@ def gi_frame(workers, G, base, rays, lights, eps, far, scene, env, mesh, pix, em
                 hg = np.empty((9, k), np.float32)
                 raygen.surface_soa(P[:k], N[:k], NG[:k], hg)
                 hdirect = np.empty((k, 3), np.float32)
-                traced[w] += m + raygen.direct_block(hg, 0, hkeys[:k], ls, True, 6 + 6 * r, eps, far, scene, hdirect)
+                traced[w] += m + raygen.direct_block(hg, 0, hkeys[:k], ls, True, 6 + 6 * r, eps, far, lit_scene,
+                                                     hdirect)
                 gather.add_bounce(bounce, owner, hits, k, alb[:k], hdirect, None)
                 for j in range(nb):
                     for a in range(3):
@@ -152,13 +154,13 @@ class GIPass:
     def execute(self, rf) -> dict:
         shadowed = rf.options.get("gi.shadows")
         scene = rf.tracer.frame_scene()
-        if scene and shadowed and rf.options.get("gi.bounces") == 1 and rf.gb.soa is not None:
+        if scene and rf.options.get("gi.bounces") == 1 and rf.gb.soa is not None:
             out, indirect_image = rf.frame_outputs()
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
-                gi_frame, rf.gb.soa, rf.key_base(4), rf.options.get("gi.rays_per_pixel"), data.lights.kernel_args,
-                data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args, rf.gb.index, s.emissive,
-                s.albedo, rf.gb.view_dir, out, indirect_image)
+                gi_frame, rf.gb.soa, rf.key_base(4), rf.options.get("gi.rays_per_pixel"), shadowed,
+                data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
+                rf.gb.index, s.emissive, s.albedo, rf.gb.view_dir, out, indirect_image)
             return {"radiance": out, "rt_indirect": indirect_image}
 
         out, indirect_image = rf.background(), rf.image()

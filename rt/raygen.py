@@ -593,25 +593,41 @@ def no_rays():
 def direct_block(G, b0, keys, lights, one, dim0, eps, far, scene, total):
     """Irradiance x cos from every light (one shadow ray each, dimensions dim0 + 3k) or from one
     chosen light (one: dimensions dim0..dim0+3) at points b0.. of G (keys: theirs), traced here
-    and added into total (zeroed first); returns the rays traced. lights: LightSet.kernel_args."""
-    analytic, emitters, guide, n_lights = lights
-    o, d, t, e, idx = no_rays()
+    and added into total (zeroed first); returns the rays traced. lights: LightSet.kernel_args.
+    scene 0: unshadowed (the study's cheap GI): every ray's light is added, none is traced."""
+    n_lights = lights[3]
     total[:] = ZERO
     if n_lights == 0:
         return 0
+    o, d, t, e, idx = no_rays()
+    if scene == 0:  # the rays packed, light by light, and all of them added (as shading._gather)
+        n = keys.shape[0]
+        o, d, t, e, idx = (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
+                           np.empty((n, 3), np.float32), np.empty(n, np.int32))
+        for k in range(1 if one else n_lights):
+            m = _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, 0, total)
+            add_unblocked(total, idx, e, np.zeros(m, np.bool_), m)
+        return 0
+    traced = 0
+    for k in range(1 if one else n_lights):
+        traced += _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, scene, total)
+    return traced
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, scene, total):
+    """direct_block's rays: to one chosen light (one), else to light k (dimensions dim0 + 3k),
+    packed into o, d, t, e, idx or traced into total (scene); returns their count."""
+    analytic, emitters, guide, n_lights = lights
     if one:
         weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
         return one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, eps, far, weights, o, d, t, e, idx,
                                      scene, total)
     start, rows, keep, alias = emitters
     count_analytic = analytic[0].shape[0]
-    traced = 0
-    for k in range(n_lights):
-        dim = dim0 + 3 * k
-        if k < count_analytic:
-            traced += analytic_shadow_rays(k, G, b0, keys, dim, analytic, eps, far, o, d, t, e, idx, scene, total)
-        else:
-            j = k - count_analytic
-            traced += cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, eps, o, d, t,
-                                          e, idx, scene, total)
-    return traced
+    dim = dim0 + 3 * k
+    if k < count_analytic:
+        return analytic_shadow_rays(k, G, b0, keys, dim, analytic, eps, far, o, d, t, e, idx, scene, total)
+    j = k - count_analytic
+    return cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, eps, o, d, t, e, idx,
+                               scene, total)
