@@ -68,14 +68,19 @@ def indirect_light(cf, s, rng, G=None) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def gi_frame(workers, G, base, rays, shadowed, lights, eps, far, scene, env, mesh, pix, emissive, albedo, view_dir, out,
-             indirect_image):
-    """The whole GI pass (one bounce; shadowed or not) in one call: blocks of points split among
-    workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
-    order): direct light from one chosen light, then per bounce ray a cosine ray, its closest
-    hit, the hit's shading and its own light sample, and the pixels written, with the uncovered
-    ones around them (gather.fill_uncovered). Returns the rays traced. env: gather.env_args;
-    mesh: what SceneData.surface shades hits with."""
+def gi_frame(workers, G, base, rays, bounces, shadowed, lights, eps, far, scene, env, mesh, pix, emissive, albedo,
+             view_dir, out, indirect_image):
+    """The whole GI pass (shadowed or not) in one call: blocks of points split among workers
+    (raygen.next_block), each doing what a chunk does (the same numbers, in the same order):
+    direct light from one chosen light, then per bounce ray a cosine ray, its closest hit, the
+    hit's shading and its own light sample, and from the hit the next bounce's ray, up to
+    `bounces`; then the pixels written, with the uncovered ones around them
+    (gather.fill_uncovered). Returns the rays traced. env: gather.env_args; mesh: what
+    SceneData.surface shades hits with.
+
+    A path's light is added as it goes, times the albedos of its earlier hits (thr), where the
+    chunked path nests each bounce's light inside the one before (incoming_indirect): the same
+    sum, up to float rounding, and the very same numbers for one bounce."""
     n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
@@ -105,28 +110,54 @@ def gi_frame(workers, G, base, rays, shadowed, lights, eps, far, scene, env, mes
             tmax = np.full(nb, embree.MISS_T, np.float32)
             th, prim, u, v = (np.empty(nb, np.float32), np.empty(nb, np.int32), np.empty(nb, np.float32),
                               np.empty(nb, np.float32))
-            sel, hkeys, bounce = np.empty(nb, np.int64), np.empty(nb, np.uint64), np.empty((nb, 3), np.float32)
+            sel, bounce, lvl = np.empty(nb, np.int64), np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32)
             P, N, NG, alb, emis = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
                                    np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32),
                                    np.empty((nb, 3), np.float32))
             rough, metal = np.empty(nb, np.float32), np.empty(nb, np.float32)
+            # a bounce's points (the block's, then the last bounce's hits): their rows, keys, pixel
+            # (block row) and the albedos of the path so far; two of each, this bounce's and the next's
+            keys_a, keys_b = np.empty(nb, np.uint64), np.empty(nb, np.uint64)
+            row_a, row_b = np.empty(nb, np.int64), np.empty(nb, np.int64)
+            thr_a, thr_b = np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32)
             for r in range(rays):
-                m = raygen.hemisphere_live(G, b0, kb, 4 + 6 * r, eps, far, o, d, t, owner, 0,
-                                           np.zeros((0, 3), np.float32))
-                embree.intersect(scene, o[:m], d[:m], tmax[:m], th, prim, u, v)
                 bounce[:] = 0.0
-                k = gather.split_hits(prim, m, d, owner, bounce, env_kind, env_color, horizon, zenith, ground, sel)
-                hits = sel[:k]
-                _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic,
-                            emission, tex_offset, tex_w, tex_h, tex_data, P[:k], N[:k], NG[:k], alb[:k], rough[:k],
-                            metal[:k], emis[:k])
-                gather.gather_keys(kb, owner, hits, k, hkeys)
-                hg = np.empty((9, k), np.float32)
-                raygen.surface_soa(P[:k], N[:k], NG[:k], hg)
-                hdirect = np.empty((k, 3), np.float32)
-                traced[w] += m + raygen.direct_block(hg, 0, hkeys[:k], ls, True, 6 + 6 * r, eps, far, lit_scene,
-                                                     hdirect)
-                gather.add_bounce(bounce, owner, hits, k, alb[:k], hdirect, None)
+                LG, lg0, npts = G, b0, nb
+                keys_a[:] = kb
+                for j in range(nb):
+                    row_a[j] = j
+                thr_a[:] = 1.0
+                for level in range(bounces):
+                    dim = 4 + 6 * (bounces * r + level)
+                    m = raygen.hemisphere_live(LG, lg0, keys_a[:npts], dim, eps, far, o, d, t, owner, 0,
+                                               np.zeros((0, 3), np.float32))
+                    embree.intersect(scene, o[:m], d[:m], tmax[:m], th, prim, u, v)
+                    lvl[:npts] = 0.0
+                    k = gather.split_hits(prim, m, d, owner, lvl, env_kind, env_color, horizon, zenith, ground, sel)
+                    hits = sel[:k]
+                    _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic,
+                                emission, tex_offset, tex_w, tex_h, tex_data, P[:k], N[:k], NG[:k], alb[:k],
+                                rough[:k], metal[:k], emis[:k])
+                    gather.gather_keys(keys_a, owner, hits, k, keys_b)
+                    hg = np.empty((9, k), np.float32)
+                    raygen.surface_soa(P[:k], N[:k], NG[:k], hg)
+                    hdirect = np.empty((k, 3), np.float32)
+                    traced[w] += m + raygen.direct_block(hg, 0, keys_b[:k], ls, True, dim + 2, eps, far, lit_scene,
+                                                         hdirect)
+                    gather.add_bounce(lvl, owner, hits, k, alb[:k], hdirect, None)
+                    for i in range(npts):  # this bounce's light, into its paths' pixels
+                        for a in range(3):
+                            bounce[row_a[i], a] += thr_a[i, a] * lvl[i, a]
+                    if level + 1 < bounces:  # the hits start the next bounce
+                        for i in range(k):
+                            q = owner[hits[i]]
+                            row_b[i] = row_a[q]
+                            for a in range(3):
+                                thr_b[i, a] = thr_a[q, a] * alb[i, a]
+                        LG, lg0, npts = hg, 0, k
+                        keys_a, keys_b = keys_b, keys_a
+                        row_a, row_b = row_b, row_a
+                        thr_a, thr_b = thr_b, thr_a
                 for j in range(nb):
                     for a in range(3):
                         total[j, a] += bounce[j, a]
@@ -154,11 +185,12 @@ class GIPass:
     def execute(self, rf) -> dict:
         shadowed = rf.options.get("gi.shadows")
         scene = rf.tracer.frame_scene()
-        if scene and rf.options.get("gi.bounces") == 1 and rf.gb.soa is not None:
+        if scene and rf.gb.soa is not None:
             out, indirect_image = rf.frame_outputs()
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
-                gi_frame, rf.gb.soa, rf.key_base(4), rf.options.get("gi.rays_per_pixel"), shadowed,
+                gi_frame, rf.gb.soa, rf.key_base(4), rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"),
+                shadowed,
                 data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
                 rf.gb.index, s.emissive, s.albedo, rf.gb.view_dir, out, indirect_image)
             return {"radiance": out, "rt_indirect": indirect_image}

@@ -276,7 +276,7 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
 
 
 @pytest.mark.parametrize("name,sets", [("cafe", ()), ("temple", ()),
-                                       ("street", ("ao.rays_per_pixel=3", "gi.rays_per_pixel=2")),
+                                       ("street", ("ao.rays_per_pixel=3", "gi.rays_per_pixel=2", "gi.bounces=3")),
                                        ("cafe", ("shadows.lights=one", "shadows.greyscale=true")),
                                        ("arcade", ("shadows.lights=one", "ao.greyscale=false", "gi.shadows=false")),
                                        ("street", ("reflections.lit=false", "reflections.roughness_threshold=0.6"))])
