@@ -124,16 +124,21 @@ def gi_frame(workers, G, base, rays, bounces, shadowed, lights, eps, far, scene,
                 bounce[:] = 0.0
                 LG, lg0, npts = G, b0, nb
                 keys_a[:] = kb
-                for j in range(nb):
-                    row_a[j] = j
-                thr_a[:] = 1.0
+                if bounces > 1:
+                    for j in range(nb):
+                        row_a[j] = j
+                    thr_a[:] = 1.0
+                # where a bounce's light goes: with one bounce straight into the pixels' (the points
+                # are the block's), else per point, then times the path's albedos into its pixel's
+                into = bounce if bounces == 1 else lvl
                 for level in range(bounces):
                     dim = 4 + 6 * (bounces * r + level)
                     m = raygen.hemisphere_live(LG, lg0, keys_a[:npts], dim, eps, far, o, d, t, owner, 0,
                                                np.zeros((0, 3), np.float32))
                     embree.intersect(scene, o[:m], d[:m], tmax[:m], th, prim, u, v)
-                    lvl[:npts] = 0.0
-                    k = gather.split_hits(prim, m, d, owner, lvl, env_kind, env_color, horizon, zenith, ground, sel)
+                    if bounces > 1:
+                        lvl[:npts] = 0.0
+                    k = gather.split_hits(prim, m, d, owner, into, env_kind, env_color, horizon, zenith, ground, sel)
                     hits = sel[:k]
                     _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic,
                                 emission, tex_offset, tex_w, tex_h, tex_data, P[:k], N[:k], NG[:k], alb[:k],
@@ -144,7 +149,9 @@ def gi_frame(workers, G, base, rays, bounces, shadowed, lights, eps, far, scene,
                     hdirect = np.empty((k, 3), np.float32)
                     traced[w] += m + raygen.direct_block(hg, 0, keys_b[:k], ls, True, dim + 2, eps, far, lit_scene,
                                                          hdirect)
-                    gather.add_bounce(lvl, owner, hits, k, alb[:k], hdirect, None)
+                    gather.add_bounce(into, owner, hits, k, alb[:k], hdirect, None)
+                    if bounces == 1:
+                        break
                     for i in range(npts):  # this bounce's light, into its paths' pixels
                         for a in range(3):
                             bounce[row_a[i], a] += thr_a[i, a] * lvl[i, a]
