@@ -81,14 +81,106 @@ def reflect(cf, reflection: np.ndarray | None = None) -> np.ndarray:
     return local
 
 
+@njit(cache=True, error_model="numpy", nogil=True)
+def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, scene, env, mesh, refl):
+    """One mirror bounce, as a level of reflected_radiance: from the points sel[k] of (P, N, NG)
+    seen along V[k] (keys[k]: their generators), ray k's closest hit shaded (lit: with its own
+    light sample, dimensions dim0..dim0+3) and its colour; refl[k] gains the environment where
+    ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
+    (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
+    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
+    env_kind, env_color, horizon, zenith, ground = env
+    m = sel.shape[0]
+    o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
+    gather.mirror_rays(P, N, NG, V, sel, eps, o, d)
+    th, prim, u, v = np.empty(m, np.float32), np.empty(m, np.int32), np.empty(m, np.float32), np.empty(m, np.float32)
+    embree.intersect(scene, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
+    owner, hit = np.arange(m), np.empty(m, np.int64)
+    k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, hit)
+    hits = hit[:k]
+    HP, HN, HNG, halb, hemis = (np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
+                                np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
+                                np.empty((k, 3), np.float32))
+    hrough, hmetal = np.empty(k, np.float32), np.empty(k, np.float32)
+    _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic, emission,
+                tex_offset, tex_w, tex_h, tex_data, HP, HN, HNG, halb, hrough, hmetal, hemis)
+    hkeys = np.empty(k, np.uint64)
+    gather.gather_keys(keys, owner, hits, k, hkeys)
+    hdirect = np.zeros((k, 3), np.float32)
+    traced = m
+    if lit:
+        hg = np.empty((9, k), np.float32)
+        raygen.surface_soa(HP, HN, HNG, hg)
+        traced += raygen.direct_block(hg, 0, hkeys, ls, True, dim0, eps, far, scene, hdirect)
+    colour = np.zeros((k, 3), np.float32)
+    gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
+    return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _deeper(depth, thr, lit, ls, eps, far, scene, env, mesh, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys,
+            colour):
+    """Mirrors 2..depth below the first mirror's hits (their shading, keys and colour; d: the
+    first mirror rays' directions): each level's smooth hits reflect again (_mirror_hits, light
+    dimensions 4 x level), then, deepest first, each level's colour takes Fresnel's blend with
+    the reflections below it, as reflected_radiance nests them; colour gains the second
+    mirror's. Returns the rays traced."""
+    levels = depth - 1
+    cap = hits.shape[0]  # no level has more points than the first has hits
+    sel, hit_l = np.empty((levels, cap), np.int64), np.empty((levels, cap), np.int64)
+    count, hit_count = np.zeros(levels, np.int64), np.zeros(levels, np.int64)
+    V, refl = np.empty((levels, cap, 3), np.float32), np.zeros((levels, cap, 3), np.float32)
+    col, emis, alb, nrm = (np.empty((levels, cap, 3), np.float32), np.empty((levels, cap, 3), np.float32),
+                           np.empty((levels, cap, 3), np.float32), np.empty((levels, cap, 3), np.float32))
+    metal = np.empty((levels, cap), np.float32)
+    traced = 0
+    pP, pN, pNG, prough, pd, phits, pkeys = HP, HN, HNG, hrough, d, hits, keys  # the level above
+    for lv in range(levels):
+        m = 0
+        for i in range(phits.shape[0]):  # the smooth hits of the level above, seen along its rays
+            if prough[i] < thr:
+                q = phits[i]
+                sel[lv, m] = i
+                V[lv, m, 0], V[lv, m, 1], V[lv, m, 2] = pd[q, 0], pd[q, 1], pd[q, 2]
+                m += 1
+        count[lv] = m
+        skeys = np.empty(m, np.uint64)
+        for j in range(m):
+            skeys[j] = pkeys[sel[lv, j]]
+        h, dd, P2, N2, NG2, alb2, rough2, metal2, emis2, col2, keys2, t = _mirror_hits(
+            pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ls, eps, far, scene, env, mesh, refl[lv])
+        traced += t
+        k = h.shape[0]
+        hit_count[lv] = k
+        hit_l[lv, :k] = h
+        col[lv, :k] = col2
+        emis[lv, :k] = emis2
+        alb[lv, :k] = alb2
+        nrm[lv, :k] = N2
+        metal[lv, :k] = metal2
+        pP, pN, pNG, prough, pd, phits, pkeys = P2, N2, NG2, rough2, dd, h, keys2
+    for lv in range(levels - 1, -1, -1):  # deepest first: blend with the level below, then into refl
+        if lv + 1 < levels:
+            c = count[lv + 1]
+            gather.blend_mirror(col[lv], sel[lv + 1, :c], emis[lv], alb[lv], metal[lv], nrm[lv], V[lv + 1, :c],
+                                refl[lv + 1], None)
+        for i in range(hit_count[lv]):
+            for a in range(3):
+                refl[lv, hit_l[lv, i], a] = col[lv, i, a]
+    c = count[0]
+    gather.blend_mirror(colour, sel[0, :c], hemis, halb, hmetal, HN, V[0, :c], refl[0], None)
+    return traced
+
+
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, G, base, thr, lit, lights, eps, far, scene, env, mesh, pix, surface, view_dir, out,
-                      reflection_image):
-    """The whole reflections pass (one mirror bounce) in one call: blocks of points split among
-    workers (raygen.next_block), each doing what a chunk does (the same numbers, in the same
-    order): the local colour (lit: one chosen light, shadowed), a mirror ray from each point
-    smoother than thr, its closest hit shaded (lit: with its own light sample), Fresnel's blend
-    and the pixels written, with the uncovered ones around them (gather.fill_uncovered).
+def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene, env, mesh, pix, surface, view_dir,
+                      out, reflection_image):
+    """The whole reflections pass in one call: blocks of points split among workers
+    (raygen.next_block), each doing what a chunk does (the same numbers, in the same order):
+    the local colour (lit: one chosen light, shadowed), a mirror ray from each point smoother
+    than thr, its closest hit shaded (lit: with its own light sample), up to `depth` mirrors
+    deep (_deeper), Fresnel's blend and the pixels written, with the uncovered ones around them
+    (gather.fill_uncovered).
     Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits
     with; surface: the G-buffer's (p, n, ng, albedo, roughness, metallic, emissive)."""
     n = pix.shape[0]
@@ -126,36 +218,22 @@ def reflections_frame(workers, G, base, thr, lit, lights, eps, far, scene, env, 
                 if rough[b0 + j] < thr:
                     smooth[m], near[m] = b0 + j, j
                     m += 1
-            V, o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
-            skeys, owner = np.empty(m, np.uint64), np.arange(m)
+            V, skeys = np.empty((m, 3), np.float32), np.empty(m, np.uint64)
             for k in range(m):
                 p = pix[smooth[k]]
                 V[k, 0], V[k, 1], V[k, 2] = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
                 skeys[k] = kb[near[k]]
-            gather.mirror_rays(P, N, NG, V, smooth[:m], eps, o, d)
-            th, prim, u, v = (np.empty(m, np.float32), np.empty(m, np.int32), np.empty(m, np.float32),
-                              np.empty(m, np.float32))
-            embree.intersect(scene, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
-            refl, hit = np.zeros((m, 3), np.float32), np.empty(m, np.int64)
-            k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, hit)
-            hits = hit[:k]
-            HP, HN, HNG, halb, hemis = (np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
-                                        np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
-                                        np.empty((k, 3), np.float32))
-            hrough, hmetal = np.empty(k, np.float32), np.empty(k, np.float32)
-            _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic,
-                        emission, tex_offset, tex_w, tex_h, tex_data, HP, HN, HNG, halb, hrough, hmetal, hemis)
-            hdirect = np.zeros((k, 3), np.float32)
-            if lit:
-                hkeys = np.empty(k, np.uint64)
-                gather.gather_keys(skeys, owner, hits, k, hkeys)
-                hg = np.empty((9, k), np.float32)
-                raygen.surface_soa(HP, HN, HNG, hg)
-                traced[w] += raygen.direct_block(hg, 0, hkeys, ls, True, 4, eps, far, scene, hdirect)
-            traced[w] += m
-            colour = np.zeros((k, 3), np.float32)
-            gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
-            for i in range(k):
+            envt = (env_kind, env_color, horizon, zenith, ground)
+            mesht = (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h,
+                     tex_data)
+            refl = np.zeros((m, 3), np.float32)
+            hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
+                P, N, NG, V, smooth[:m], skeys, 4, lit, ls, eps, far, scene, envt, mesht, refl)
+            traced[w] += t
+            if depth > 1:
+                traced[w] += _deeper(depth, thr, lit, ls, eps, far, scene, envt, mesht, HP, HN, HNG, halb, hrough,
+                                     hmetal, hemis, d, hits, hkeys, colour)
+            for i in range(hits.shape[0]):
                 for a in range(3):
                     refl[hits[i], a] = colour[i, a]
             reflection = np.zeros((nb, 4), np.float32)
@@ -167,8 +245,7 @@ def reflections_frame(workers, G, base, thr, lit, lights, eps, far, scene, env, 
                     out[p, a] = local[j, a] + emissive[b0 + j, a]
                 for a in range(4):
                     reflection_image[p, a] = reflection[j, a]
-            gather.fill_uncovered(out, reflection_image, np.float32(0.0), pix, b0, b1, view_dir,
-                                  (env_kind, env_color, horizon, zenith, ground))
+            gather.fill_uncovered(out, reflection_image, np.float32(0.0), pix, b0, b1, view_dir, envt)
     return traced.sum()
 
 
@@ -182,13 +259,13 @@ class ReflectionsPass:
 
     def execute(self, rf) -> dict:
         scene = rf.tracer.frame_scene()
-        if scene and rf.options.get("reflections.max_depth") == 1 and rf.gb.soa is not None:
+        if scene and rf.gb.soa is not None:
             out, reflection_image = rf.frame_outputs(4)
             s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 reflections_frame, rf.gb.soa, rf.key_base(3),
                 np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-                data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
+                rf.options.get("reflections.max_depth"), data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
                 rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
                 reflection_image)
             return {"radiance": out, "rt_reflection": reflection_image}

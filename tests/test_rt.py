@@ -279,7 +279,9 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
                                        ("street", ("ao.rays_per_pixel=3", "gi.rays_per_pixel=2", "gi.bounces=3")),
                                        ("cafe", ("shadows.lights=one", "shadows.greyscale=true")),
                                        ("arcade", ("shadows.lights=one", "ao.greyscale=false", "gi.shadows=false")),
-                                       ("street", ("reflections.lit=false", "reflections.roughness_threshold=0.6"))])
+                                       ("street", ("reflections.lit=false", "reflections.roughness_threshold=0.6",
+                                                   "reflections.max_depth=3")),
+                                       ("temple", ("reflections.max_depth=4", "reflections.roughness_threshold=0.5"))])
 def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypatch):
     """AO, shadows, GI and reflections as one compiled parallel call per frame (Tracer.frame_scene) give the
     chunked path's images and count the same rays, on 1 and 3 threads. Equal to the float32
@@ -363,16 +365,16 @@ def test_chunk_balance_keeps_the_image(gl):
     """Chunk bounds follow last frame's cost; every pixel's numbers are its own, so the image
     stays the same whatever the bounds."""
     scene = build_builtin("arcade")
-    r = make(gl, scene, ["reflections.max_depth=2"])  # two mirrors: a pass that runs in chunks
+    r = make(gl, scene, ["reference.max_bounces=2"])  # the reference path tracer runs in chunks
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     tracer = r.ray_tracing().tracer
     tracer.set_threads(3)
-    first = r.render(cam, 256, 144, "reflections") and r.read_linear()
+    first = r.render(cam, 256, 144, "reference") and r.read_linear()
     assert tracer._costs  # measured
     key = next(iter(tracer._costs))
     tracer._costs[key] = np.linspace(1.0, 50.0, tracer.COST_BINS)  # skewed bounds next time
     r.reset()
-    second = r.render(cam, 256, 144, "reflections") and r.read_linear()
+    second = r.render(cam, 256, 144, "reference") and r.read_linear()
     assert np.abs(first - second).max() < 1e-5
     r.release()
 
