@@ -265,7 +265,8 @@ class ReflectionsPass:
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 reflections_frame, rf.gb.soa, rf.key_base(3),
                 np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-                rf.options.get("reflections.max_depth"), data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
+                rf.options.get("reflections.max_depth"), data.lights.kernel_args, data.eps, data.far, scene,
+                gather.env_args(rf.environment), data.mesh_args,
                 rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
                 reflection_image)
             return {"radiance": out, "rt_reflection": reflection_image}
