@@ -121,7 +121,7 @@ def reference_one_light(P, N, keys, dim, analytic, emitters, guide, far):
 
 def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probability():
     rng = np.random.default_rng(5)
-    n = 150  # more than one block of raygen.BLOCK points
+    n = raygen.BLOCK + 150  # more than one block of points
     P = rng.uniform(-2, 2, (n, 3)).astype(np.float32)
     N = rng.normal(size=(n, 3)).astype(np.float32)
     N /= np.linalg.norm(N, axis=1, keepdims=True)
