@@ -8,12 +8,19 @@ Compiled kernels are cached per version of this package's sources: numba checks 
 file of the function it loads, but a kernel carries the code of the kernels it calls from
 other modules (rt/ao.py's frame kernel holds rt/raygen.py's generators), so after an update a
 cache keyed by one file could run old code. The cache directory is named after a hash of
-every source in rt/ unless NUMBA_CACHE_DIR is set."""
+every source in rt/ unless NUMBA_CACHE_DIR is set.
+
+Freed memory is kept for reuse (rt/memory.py): otherwise each frame's scratch comes back as
+fresh pages, a page fault each."""
 import hashlib
 import os
 import pathlib
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+from rt.memory import keep_freed_memory  # noqa: E402
+
+keep_freed_memory()
 
 
 def cache_dir(sources: pathlib.Path = pathlib.Path(__file__).parent) -> pathlib.Path:
