@@ -93,6 +93,9 @@ class Renderer:
         # shown again instead of re-rendered, which keeps the UI responsive on software GL
         self.reuse_static_frames = False
         self._rt_buffers: dict = {}  # the ray-traced passes' full-image outputs, reused (rt/frame.py)
+        # a ray-traced pass's images besides radiance (rt_direct, rt_ao, ...: Pass.writes) are made
+        # only if this is set (tests, scripts that read them from the pass); the display reads radiance
+        self.pass_outputs = False
 
     def set_scene(self, scene) -> None:
         if self.gpu is not None:
@@ -187,7 +190,8 @@ class Renderer:
         else:
             with self.profiler.cpu("gbuffer_rt"):
                 gb = trace_primary(rt.data, rt.tracer, frame.camera, frame.width, frame.height, reuse=True)
-        rf = RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index, self._rt_buffers)
+        rf = RtFrame(rt.data, rt.tracer, gb, frame.environment, self.options, self.seed, frame.index, self._rt_buffers,
+                     aux=self.pass_outputs)
         if job.pass_name in CHANNEL_VIEWS:
             job.result = {"radiance": rt_channel(rf, frame, job.pass_name)}
         elif job.pass_name == "hybrid":

@@ -90,12 +90,12 @@ class AOPass:
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 ao_frame, rf.gb.soa, rf.key_base(2), rays, rf.data.eps, radius, scene, rf.gb.index,
                 rf.gb.surface.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, ao_image)
-            return {"radiance": out, "rt_ao": ao_image}
+            return rf.outputs(out, rt_ao=ao_image)
 
-        out, ao_image = rf.background(), rf.image(1, fill=1.0)
+        out, ao_image = rf.background(), rf.aux_image(1, fill=1.0)
 
         def work(cf):
             gather.write_ao(out, ao_image, cf.idx, ambient_occlusion(cf), rays, cf.s.albedo, grey)
 
         rf.for_chunks(work, streams=(2,))
-        return {"radiance": out, "rt_ao": ao_image}
+        return rf.outputs(out, rt_ao=ao_image)

@@ -11,6 +11,11 @@ from rt.shading import SceneData
 from rt.tracer import Tracer
 
 
+def no_image(channels: int) -> np.ndarray:
+    """The empty stand-in for an output image nobody reads (RtFrame.aux_image)."""
+    return np.empty((0, channels), np.float32)
+
+
 @dataclass
 class RtFrame:
     data: SceneData
@@ -24,6 +29,10 @@ class RtFrame:
     # faults worth a few ms each, every frame. A frame's outputs are valid until the next frame.
     buffers: dict | None = None
     keys: dict = field(default_factory=dict)  # random stream -> every covered pixel's key (for_chunks)
+    # whether the passes make their images besides radiance (Pass.writes: rt_direct, rt_ao, ...).
+    # The display reads radiance alone, so the renderer asks for the others only when told to
+    # (Renderer.pass_outputs); without them a pass writes one full image a frame, not two.
+    aux: bool = True
 
     def rng(self, stream: int) -> PixelRng:
         """Per-pixel generator for the covered pixels, seeded from (seed, frame, pixel, stream)."""
@@ -44,8 +53,19 @@ class RtFrame:
         unfilled here, which saves two passes over the whole image before the frame. With no
         covered pixel there is no block to fill them, so they come back filled."""
         if len(self.gb.index) == 0:
-            return self.background(), self.image(channels, fill, name)
-        return self._buffer("background", 3), self._buffer(f"image{channels}{name}", channels)
+            return self.background(), self.aux_image(channels, fill, name)
+        aux = self._buffer(f"image{channels}{name}", channels) if self.aux else no_image(channels)
+        return self._buffer("background", 3), aux
+
+    def aux_image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
+        """image(channels, fill, name) for a pass's output besides radiance, or when the frame
+        makes radiance only (aux False) an empty (0, channels) array: the kernels and
+        ChunkFrame.put write nothing into it."""
+        return self.image(channels, fill, name) if self.aux else no_image(channels)
+
+    def outputs(self, radiance: np.ndarray, **aux) -> dict:
+        """A pass's results: radiance, and its other images (by name) when the frame makes them."""
+        return {"radiance": radiance, **(aux if self.aux else {})}
 
     def for_chunks(self, work, streams: tuple = ()) -> None:
         """work(ChunkFrame) for runs of covered pixels, on the tracer's threads (chunks sized by
@@ -138,8 +158,11 @@ class ChunkFrame:
         return PixelRng(self.frame.seed, self.frame.index, self.idx, stream, out=keys)
 
     def put(self, image: np.ndarray, values: np.ndarray) -> None:
-        """Write per-pixel values of this chunk into a full image from RtFrame.image()."""
+        """Write per-pixel values of this chunk into a full image from RtFrame.image() (nothing
+        into an empty one: RtFrame.aux_image)."""
         from rt.kernels import scatter_rows
 
+        if image.shape[0] == 0:
+            return
         v = np.ascontiguousarray(values, np.float32)
         scatter_rows(image, self.idx, v.reshape(v.shape[0], -1))

@@ -67,10 +67,11 @@ def add_bounce(out, owner, sel, k, albedo, direct, inner):
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _fill_run(out, aux, aux_fill, view_dir, terms, p0, p1):
+    channels = aux.shape[1] if aux.shape[0] > 0 else 0  # an empty aux: none (RtFrame.aux_image)
     for p in range(p0, p1):
         r, g, b = environment_rgb(view_dir[p, 1], terms)
         out[p, 0], out[p, 1], out[p, 2] = r, g, b
-        for a in range(aux.shape[1]):
+        for a in range(channels):
             aux[p, a] = aux_fill
 
 
@@ -81,7 +82,8 @@ def fill_uncovered(out, aux, aux_fill, pix, b0, b1, view_dir, env):
     last block), so that a whole-frame kernel's blocks share out the whole image: out gets the
     environment's radiance (kinds as env_args), every channel of aux gets aux_fill (what
     RtFrame.background and RtFrame.image fill in, done here by the worker that writes the
-    covered pixels around them, instead of two passes over the whole image before the frame)."""
+    covered pixels around them, instead of two passes over the whole image before the frame;
+    an empty aux gets nothing: RtFrame.aux_image)."""
     kind, color, horizon, zenith, ground = env
     terms = environment_terms(kind, color, horizon, zenith, ground)
     n = pix.shape[0]
@@ -108,12 +110,15 @@ def write_lit(out, pix, emissive, albedo, direct, extra, grey):
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def write_ao(out, ao_image, pix, open_count, rays, albedo, grey):
-    """AO = open_count / rays into ao_image, and AO (x albedo unless grey) into out."""
+    """AO = open_count / rays into ao_image (unless it is empty: RtFrame.aux_image), and AO
+    (x albedo unless grey) into out."""
     inv = np.float32(1.0) / np.float32(rays)
+    keep = ao_image.shape[0] > 0
     for j in range(pix.shape[0]):
         p = pix[j]
         v = open_count[j] * inv
-        ao_image[p, 0] = v
+        if keep:
+            ao_image[p, 0] = v
         for a in range(3):
             out[p, a] = v if grey else albedo[j, a] * v
 

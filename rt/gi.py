@@ -173,9 +173,11 @@ def gi_frame(workers, G, base, rays, bounces, shadowed, lights, eps, far, scene,
                 for a in range(3):
                     total[j, a] = total[j, a] / inv
             gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], direct, total, False)
-            for j in range(nb):
-                p = pix[b0 + j]
-                indirect_image[p, 0], indirect_image[p, 1], indirect_image[p, 2] = total[j, 0], total[j, 1], total[j, 2]
+            if indirect_image.shape[0] > 0:  # wanted (RtFrame.aux_image)
+                for j in range(nb):
+                    p = pix[b0 + j]
+                    indirect_image[p, 0], indirect_image[p, 1], indirect_image[p, 2] = (total[j, 0], total[j, 1],
+                                                                                        total[j, 2])
             gather.fill_uncovered(out, indirect_image, np.float32(0.0), pix, b0, b1, view_dir,
                                   (env_kind, env_color, horizon, zenith, ground))
     return traced.sum()
@@ -200,9 +202,9 @@ class GIPass:
                 shadowed,
                 data.lights.kernel_args, data.eps, data.far, scene, gather.env_args(rf.environment), data.mesh_args,
                 rf.gb.index, s.emissive, s.albedo, rf.gb.view_dir, out, indirect_image)
-            return {"radiance": out, "rt_indirect": indirect_image}
+            return rf.outputs(out, rt_indirect=indirect_image)
 
-        out, indirect_image = rf.background(), rf.image()
+        out, indirect_image = rf.background(), rf.aux_image()
 
         def work(cf):
             s, rng = cf.s, cf.rng(4)
@@ -213,4 +215,4 @@ class GIPass:
             cf.put(indirect_image, indirect)
 
         rf.for_chunks(work, streams=(4,))
-        return {"radiance": out, "rt_indirect": indirect_image}
+        return rf.outputs(out, rt_indirect=indirect_image)

@@ -239,12 +239,14 @@ def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene
             reflection = np.zeros((nb, 4), np.float32)
             gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo[b0:b1], metal[b0:b1],
                                 N[b0:b1], V, refl, reflection)
+            wanted = reflection_image.shape[0] > 0  # (RtFrame.aux_image)
             for j in range(nb):
                 p = pix[b0 + j]
                 for a in range(3):
                     out[p, a] = local[j, a] + emissive[b0 + j, a]
-                for a in range(4):
-                    reflection_image[p, a] = reflection[j, a]
+                if wanted:
+                    for a in range(4):
+                        reflection_image[p, a] = reflection[j, a]
             gather.fill_uncovered(out, reflection_image, np.float32(0.0), pix, b0, b1, view_dir, envt)
     return traced.sum()
 
@@ -269,9 +271,9 @@ class ReflectionsPass:
                 gather.env_args(rf.environment), data.mesh_args,
                 rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
                 reflection_image)
-            return {"radiance": out, "rt_reflection": reflection_image}
+            return rf.outputs(out, rt_reflection=reflection_image)
 
-        out, reflection_image = rf.background(), rf.image(4)
+        out, reflection_image = rf.background(), rf.aux_image(4)
 
         def work(cf):
             reflection = scratch.buffer("refl.rgba", (len(cf.s), 4))
@@ -282,4 +284,4 @@ class ReflectionsPass:
             cf.put(reflection_image, reflection)
 
         rf.for_chunks(work, streams=(3,))
-        return {"radiance": out, "rt_reflection": reflection_image}
+        return rf.outputs(out, rt_reflection=reflection_image)

@@ -57,9 +57,10 @@ def shadows_frame(workers, G, base, lights, one, eps, far, scene, pix, emissive,
             kb = raygen.block_keys(pix, b0, b1, base)
             traced[w] += raygen.direct_block(G, b0, kb, ls, one, 0, eps, far, scene, total)
             gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], total, None, grey)
-            for j in range(b1 - b0):
-                p = pix[b0 + j]
-                direct[p, 0], direct[p, 1], direct[p, 2] = total[j, 0], total[j, 1], total[j, 2]
+            if direct.shape[0] > 0:  # wanted (RtFrame.aux_image)
+                for j in range(b1 - b0):
+                    p = pix[b0 + j]
+                    direct[p, 0], direct[p, 1], direct[p, 2] = total[j, 0], total[j, 1], total[j, 2]
             gather.fill_uncovered(out, direct, np.float32(0.0), pix, b0, b1, view_dir,
                                   (env_kind, env_color, horizon, zenith, ground))
     return traced.sum()
@@ -83,9 +84,9 @@ class ShadowsPass:
             rf.tracer.rays_traced += rf.tracer.run_parallel(
                 shadows_frame, rf.gb.soa, rf.key_base(1), data.lights.kernel_args, one, data.eps, data.far, scene,
                 rf.gb.index, s.emissive, s.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, direct)
-            return {"radiance": out, "rt_direct": direct}
+            return rf.outputs(out, rt_direct=direct)
 
-        out, direct = rf.background(), rf.image()
+        out, direct = rf.background(), rf.aux_image()
 
         def work(cf):
             e = direct_irradiance(cf)
@@ -93,4 +94,4 @@ class ShadowsPass:
             cf.put(direct, e)
 
         rf.for_chunks(work, streams=(1,))
-        return {"radiance": out, "rt_direct": direct}
+        return rf.outputs(out, rt_direct=direct)

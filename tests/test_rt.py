@@ -298,6 +298,7 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
             for whole in (True, False):
                 monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
                 r = make(gl, scene, sets)
+                r.pass_outputs = True
                 tracer = r.ray_tracing().tracer
                 tracer.set_threads(threads)
                 rt_pass, outputs = r.rt_passes[pass_name], {}
@@ -316,6 +317,38 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
             assert out_a.keys() == out_b.keys() == set(rt_pass.writes)
             for k in out_a:  # the passes' other outputs too (what hybrid views swap in)
                 assert np.allclose(out_a[k], out_b[k], rtol=1e-5, atol=1e-7), k
+    monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
+
+
+def test_passes_make_radiance_only_unless_asked(gl, monkeypatch):
+    """By default (Renderer.pass_outputs False) a pass returns radiance alone, in the whole-frame
+    kernels and the chunked path, and the image is the very same as when its other outputs
+    (rt_direct, rt_ao, ...) are made too."""
+    from rt.tracer import EmbreeTracer
+
+    scene = build_builtin("cafe")
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    frame_scene = EmbreeTracer.frame_scene
+    for whole in (True, False):
+        monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
+        for pass_name in ("ao", "shadows", "gi", "reflections"):
+            images = []
+            for wanted in (False, True):
+                r = make(gl, scene)
+                r.pass_outputs = wanted
+                rt_pass, keys = r.rt_passes[pass_name], []
+
+                def keep(rf, execute=rt_pass.execute, keys=keys):
+                    result = execute(rf)
+                    keys.append(set(result))
+                    return result
+
+                monkeypatch.setattr(rt_pass, "execute", keep)
+                r.render(cam, 80, 45, pass_name)
+                images.append(r.read_linear())
+                assert keys == [set(rt_pass.writes) if wanted else {"radiance"}], (pass_name, whole)
+                r.release()
+            assert np.array_equal(images[0], images[1]) and images[0].std() > 0.01, (pass_name, whole)
     monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
 
 
