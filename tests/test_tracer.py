@@ -110,13 +110,13 @@ def test_freed_scratch_is_reused_without_page_faults():
     of frame-sized scratch arrays lands on pages it already touched (glibc's defaults: ~1,300
     faults here)."""
     import ctypes
-    import resource
     import threading
 
     import rt  # noqa: F401  (sets malloc's thresholds)
 
     if not hasattr(ctypes.CDLL(None), "gnu_get_libc_version"):
         pytest.skip("malloc's thresholds are glibc's")
+    import resource
 
     def round_of_scratch():
         for mb in (0.4, 1.2, 0.4, 2, 0.4, 5, 0.4):
