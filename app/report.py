@@ -94,6 +94,10 @@ def recommendation_rows(doc: dict, budget_ms) -> list[list[str]]:
     return rows
 
 
+OUTSIDE = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}  # legends beside the axes,
+# never over the data (tight_layout makes room for them)
+
+
 def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
     import matplotlib
 
@@ -106,7 +110,7 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
     plots = []
     configs = ["forward"] + [c for _, c in TECHNIQUES]
     configs = [c for c in configs if any((s, c) in idx for s in scenes)]
-    fig, ax = plt.subplots(figsize=(10, 4.5))
+    fig, ax = plt.subplots(figsize=(11, 4.5))
     width = 0.8 / max(len(configs), 1)
     for k, cfg in enumerate(configs):
         xs = [i + k * width for i, s in enumerate(scenes) if (s, cfg) in idx]
@@ -116,14 +120,14 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
     ax.set_yscale("log")
     ax.set_ylabel("frames per second (log)")
     ax.set_title(f"fps per technique, {w}x{h}\n{label}", fontsize=9)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, ncol=1, **OUTSIDE)
     fig.tight_layout()
     plots.append(("fps per technique per scene", _save(fig, folder / "plot_fps.png")))
     plt.close(fig)
 
     rows = [r for r in doc["results"] if r.get("quality") and not r["accumulate"]]
     if rows:
-        fig, ax = plt.subplots(figsize=(7, 4.5))
+        fig, ax = plt.subplots(figsize=(8, 4.5))
         for s in scenes:
             pts = [r for r in rows if r["scene"] == s]
             ax.scatter([r["frame_ms"]["mean"] for r in pts], [r["quality"]["flip_accumulated"] for r in pts], label=s)
@@ -133,12 +137,12 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         ax.set_xlabel("frame time (ms, log)")
         ax.set_ylabel("mean FLIP vs reference (lower is better)")
         ax.set_title(f"cost vs quality\n{label}", fontsize=9)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, **OUTSIDE)
         fig.tight_layout()
         plots.append(("cost vs quality", _save(fig, folder / "plot_cost_quality.png")))
         plt.close(fig)
 
-        fig, ax = plt.subplots(figsize=(7, 4.5))
+        fig, ax = plt.subplots(figsize=(8, 4.5))
         pixels = w * h
         for fam in ("gi", "ao"):
             for s in scenes:
@@ -149,7 +153,7 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         ax.set_xlabel("rays per pixel per frame")
         ax.set_ylabel("mean FLIP of one frame (noise)")
         ax.set_title(f"rays per pixel vs error\n{label}", fontsize=9)
-        ax.legend(fontsize=6, ncol=2)
+        ax.legend(fontsize=7, **OUTSIDE)
         fig.tight_layout()
         plots.append(("rays per pixel vs error", _save(fig, folder / "plot_rays_error.png")))
         plt.close(fig)
