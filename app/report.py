@@ -103,6 +103,7 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     idx, scenes = _index(doc), list(doc["scenes"])
     label = machine_label(doc["machine"])
@@ -118,6 +119,10 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         ax.bar(xs, ys, width, label=cfg)
     ax.set_xticks([i + 0.4 - width / 2 for i in range(len(scenes))], scenes)
     ax.set_yscale("log")
+    plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")  # 30, not 3 x 10^1
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(2.0, 3.0, 5.0)))  # 2, 3, 5, 20, 30, ...
+    ax.yaxis.set_minor_formatter(plain)
     ax.set_ylabel("frames per second (log)")
     ax.set_title(f"fps per technique, {w}x{h}\n{label}", fontsize=9)
     ax.legend(fontsize=7, ncol=1, **OUTSIDE)
