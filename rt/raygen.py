@@ -488,6 +488,18 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx,
         _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
 
 
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
+    """_picked_rays where the scene's one light is a sun (row: its LIGHT_ROW): the cone sample
+    alone, from the same two numbers (dimensions dim + 1 and dim + 2), without the point
+    light's and the emitter's maths or the third number that only they use."""
+    ax, ay, az, cos_ang, r0, r1, r2 = row[3], row[4], row[5], row[8], row[10], row[11], row[12]
+    for b in range(nb):
+        key = keys[b]
+        x, y, z = _sun(ax, ay, az, cos_ang, uniform(key, dim + 1), uniform(key, dim + 2))
+        _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, far, r0, r1, r2, dx, dy, dz, dd, er, eg, eb)
+
+
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
                           e, idx, scene, acc):
@@ -504,6 +516,7 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
                                        weights[n_lights + 3], weights[n_lights + 4], weights[n_lights + 5])
     S = np.empty((PICKED_ROWS, BLOCK), np.float32)
     single = n_lights == 1 and na == 1  # the pick is that light, with probability 1, at every point
+    sun_only = single and table[0, 9] > ZERO  # and a sun: _sun_rays
     if single:  # its row once for every block: no weights, no pick, no gather
         for c in range(LIGHT_ROW):
             for b in range(BLOCK):
@@ -522,16 +535,19 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
         nb = b1 - b0
         px, py, pz, nx, ny, nz = G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1]
         gx, gy, gz, bkeys = G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1]
-        if single:
-            _draw_samples(bkeys, dim, nb, u1, u2, u3)
+        if sun_only:
+            _sun_rays(bkeys, dim, nb, table[0], nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
         else:
-            _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
-            _draw_targets(bkeys, dim, nb, total, target, pick, u1, u2, u3)
-            for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
-                for i in range(nb):
-                    pick[i] += ONE if w[k, i] <= target[i] else ZERO
-            _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
-        _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
+            if single:
+                _draw_samples(bkeys, dim, nb, u1, u2, u3)
+            else:
+                _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
+                _draw_targets(bkeys, dim, nb, total, target, pick, u1, u2, u3)
+                for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
+                    for i in range(nb):
+                        pick[i] += ONE if w[k, i] <= target[i] else ZERO
+                _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
+            _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
         if scene:
             m += _trace_add(G, g0, b0, nb, blk, eps, far, scene, buf, words, rb, acc, True)
         else:

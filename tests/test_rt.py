@@ -232,6 +232,28 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
     r.release()
 
 
+def test_one_light_pick_of_a_lone_sun_is_that_suns_own_rays(gl):
+    """With a sun as the only light (the street), the one-light estimator picks it everywhere
+    with probability 1 (raygen._sun_rays): its rays are the sun's own shadow rays drawn from
+    the same numbers (its dimensions dim + 1, dim + 2), origin, direction, length and light."""
+    from rt import scratch
+    from rt.gbuffer import from_raster
+    from rt.sampling import PixelRng
+
+    r, cam, job = prepared_frame(gl, "street")
+    gb = from_raster(job.readback, cam, 96, 54)
+    lights = r.ray_tracing().data.lights
+    assert lights.count == 1 and lights.analytic[0][0] == 2  # one light, a sun
+    n = len(gb.index)
+    keys = PixelRng(0, 0, gb.index, 1).key
+    a, b = scratch.rays("t.a", n, True), scratch.rays("t.b", n, True)
+    m = lights.one_rays((gb.soa, 0), keys, 5, a[0], a[1], a[2], a[4], a[3])
+    assert m == lights.rays(0, (gb.soa, 0), keys, 6, b[0], b[1], b[2], b[4], b[3]) and m > n // 2
+    for x, y in zip(a, b, strict=True):
+        assert np.allclose(x[:m], y[:m], rtol=1e-6, atol=1e-7)
+    r.release()
+
+
 @pytest.mark.parametrize("name", ["cafe", "temple", "street"])
 def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     """Given a scene handle, generators trace their rays as they make them and add what gets
