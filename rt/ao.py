@@ -53,12 +53,12 @@ def ao_frame(workers, G, base, rays, eps, radius, scene, pix, albedo, grey, view
     gather.env_args). Returns the rays traced."""
     n = pix.shape[0]
     env_kind, env_color, horizon, zenith, ground = env
-    size = raygen.block_size(n, workers)
+    bounds = raygen.block_bounds(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
         while True:
-            b0, b1 = raygen.next_block(counter, n, size)
+            b0, b1 = raygen.next_block(counter, bounds)
             if b0 >= n:
                 break
             o, d, t, _, idx = raygen.no_rays()

@@ -63,6 +63,7 @@ def offset(eps, px, py, pz):
 NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (0)
 FRAME_BLOCK = 2048, 32768  # fewest and most points per work item of the whole-frame kernels (block_size)
 BLOCKS_PER_WORKER = 8
+TAIL_SHARE = 2  # block_bounds: the last blocks take at most 1 / (TAIL_SHARE x workers) of what is left
 RUN = 256  # points per step: a vectorised loop fills the step's rays, a short serial one packs them
 
 
@@ -583,16 +584,39 @@ def block_size(n, workers):
     return min(max(n // (workers * BLOCKS_PER_WORKER), FRAME_BLOCK[0]), FRAME_BLOCK[1])
 
 
+@njit(cache=True, error_model="numpy")
+def block_bounds(n, workers):
+    """The whole-frame kernels' work items: points bounds[i]..bounds[i + 1]. Blocks of
+    block_size, shrinking towards the end of the frame (each at most the points left over
+    TAIL_SHARE x workers, and at least FRAME_BLOCK[0]), so that the workers finish together:
+    with equal blocks, one worker could take the last block just as the others ran out of work,
+    and they idled for up to a block's time."""
+    size = block_size(n, workers)
+    tail = TAIL_SHARE * workers if workers > 1 else n + 1  # one worker: nobody to wait for
+    bounds = np.empty(n // FRAME_BLOCK[0] + 2, np.int64)
+    bounds[0] = 0
+    count, b = 0, 0
+    while b < n:
+        step = min(size, max((n - b) // tail, FRAME_BLOCK[0]))
+        b = min(b + step, n)
+        count += 1
+        bounds[count] = b
+    return bounds[:count + 1]
+
+
 @njit(cache=True, error_model="numpy", inline="always")
-def next_block(counter, n, size):
-    """The next block of points (b0, b1) for a whole-frame kernel's worker; b0 >= n when all
-    are taken. Workers take blocks in order as each becomes free (counter: a shared int64
-    array of one, zeroed), so a worker that drew cheap sky takes more and all finish together;
-    the blocks being traced at one time are neighbours, which share the BVH's nodes in the
-    cache. (Blocks dealt out in advance, every workers-th to each, left threads idle at the
-    end of a frame whenever their share happened to cost more.)"""
-    b0 = take_next(counter) * size
-    return b0, min(b0 + size, n)
+def next_block(counter, bounds):
+    """The next block of points (b0, b1) for a whole-frame kernel's worker (bounds:
+    block_bounds); b0 >= n when all are taken. Workers take blocks in order as each becomes free
+    (counter: a shared int64 array of one, zeroed), so a worker that drew cheap sky takes more
+    and all finish together; the blocks being traced at one time are neighbours, which share the
+    BVH's nodes in the cache. (Blocks dealt out in advance, every workers-th to each, left
+    threads idle at the end of a frame whenever their share happened to cost more.)"""
+    i = take_next(counter)
+    last = bounds.shape[0] - 1
+    if i >= last:
+        return bounds[last], bounds[last]
+    return bounds[i], bounds[i + 1]
 
 
 @njit(cache=True, error_model="numpy", inline="always")

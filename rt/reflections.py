@@ -192,14 +192,14 @@ def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene
     env_kind, env_color, horizon, zenith, ground = env
     corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
     P, N, NG, albedo, rough, metal, emissive = surface
-    size = raygen.block_size(n, workers)
+    bounds = raygen.block_bounds(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
         while True:
-            b0, b1 = raygen.next_block(counter, n, size)
+            b0, b1 = raygen.next_block(counter, bounds)
             if b0 >= n:
                 break
             nb = b1 - b0
