@@ -103,7 +103,6 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import matplotlib.ticker
 
     idx, scenes = _index(doc), list(doc["scenes"])
     label = machine_label(doc["machine"])
@@ -119,10 +118,7 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         ax.bar(xs, ys, width, label=cfg)
     ax.set_xticks([i + 0.4 - width / 2 for i in range(len(scenes))], scenes)
     ax.set_yscale("log")
-    plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")  # 30, not 3 x 10^1
-    ax.yaxis.set_major_formatter(plain)
-    ax.yaxis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(2.0, 3.0, 5.0)))  # 2, 3, 5, 20, 30, ...
-    ax.yaxis.set_minor_formatter(plain)
+    _plain_log_ticks(ax.yaxis)
     ax.set_ylabel("frames per second (log)")
     ax.set_title(f"fps per technique, {w}x{h}\n{label}", fontsize=9)
     ax.legend(fontsize=7, ncol=1, **OUTSIDE)
@@ -139,6 +135,7 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
             for r in pts:
                 ax.annotate(r["config"], (r["frame_ms"]["mean"], r["quality"]["flip_accumulated"]), fontsize=6)
         ax.set_xscale("log")
+        _plain_log_ticks(ax.xaxis)
         ax.set_xlabel("frame time (ms, log)")
         ax.set_ylabel("mean FLIP vs reference (lower is better)")
         ax.set_title(f"cost vs quality\n{label}", fontsize=9)
@@ -163,6 +160,16 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         plots.append(("rays per pixel vs error", _save(fig, folder / "plot_rays_error.png")))
         plt.close(fig)
     return plots
+
+
+def _plain_log_ticks(axis) -> None:
+    """A log axis labelled 20, 30, 50, 100, ... (not 2 x 10^1, overlapping at every minor tick)."""
+    import matplotlib.ticker
+
+    plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
+    axis.set_major_formatter(plain)
+    axis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(2.0, 3.0, 5.0)))
+    axis.set_minor_formatter(plain)
 
 
 def _save(fig, path: Path) -> str:
