@@ -592,12 +592,13 @@ def block_bounds(n, workers):
     with equal blocks, one worker could take the last block just as the others ran out of work,
     and they idled for up to a block's time."""
     size = block_size(n, workers)
-    tail = TAIL_SHARE * workers if workers > 1 else n + 1  # one worker: nobody to wait for
+    tail = TAIL_SHARE * workers
     bounds = np.empty(n // FRAME_BLOCK[0] + 2, np.int64)
     bounds[0] = 0
     count, b = 0, 0
     while b < n:
-        step = min(size, max((n - b) // tail, FRAME_BLOCK[0]))
+        # one worker: nobody to wait for, blocks of block_size to the end
+        step = size if workers == 1 else min(size, max((n - b) // tail, FRAME_BLOCK[0]))
         b = min(b + step, n)
         count += 1
         bounds[count] = b

@@ -137,7 +137,8 @@ def test_freed_scratch_is_reused_without_page_faults():
     assert faults[0] < 100
 
 
-@pytest.mark.parametrize("n,workers", [(0, 2), (1, 2), (5000, 2), (40000, 1), (580000, 2), (921600, 2), (921600, 16)])
+@pytest.mark.parametrize("n,workers", [(0, 2), (1, 2), (5000, 2), (40000, 1), (921600, 1), (580000, 2), (921600, 2),
+                                       (921600, 16)])
 def test_frame_blocks_cover_every_point_once_and_shrink_at_the_end(n, workers):
     from rt.raygen import FRAME_BLOCK, block_bounds, block_size, next_block
 
@@ -148,8 +149,8 @@ def test_frame_blocks_cover_every_point_once_and_shrink_at_the_end(n, workers):
     assert (sizes[:-1] >= min(FRAME_BLOCK[0], n)).all()  # only the last may be short
     if workers > 1 and n >= 100_000:  # the last blocks shrink, so the workers finish together
         assert sizes[-1] < sizes[0] / 4 and (np.diff(sizes) <= 0).all()
-    if workers == 1:  # nobody to wait for: equal blocks
-        assert (sizes[:-1] == sizes[0]).all()
+    if workers == 1:  # nobody to wait for: blocks of block_size to the end
+        assert (sizes[:-1] == block_size(n, workers)).all()
     counter = np.zeros(1, np.int64)  # the workers' view: each block once, then (n, n)
     taken = [next_block(counter, bounds) for _ in range(len(sizes) + 2)]
     assert [b for b in taken if b[0] < n] == list(zip(bounds[:-1], bounds[1:], strict=True))
