@@ -17,13 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from app.camera import Camera, parse_camera
-from app.errors import UserError
 from app.gl_context import create_headless_context
 from app.headless import parse_size
 from app.image_io import atomic_path, write_png, write_text
 from app.machine import machine_info
 from app.options import Options
 from app.renderer import Renderer
+from core.errors import UserError
 from scenes.loaders import load_scene
 
 # name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on

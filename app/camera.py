@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.errors import UserError
+from core.errors import UserError
 from scenes.model import View
 
 

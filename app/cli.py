@@ -6,8 +6,9 @@ import json
 import sys
 import warnings
 
-from app.errors import UserError
 from app.passes import ALL
+from core.errors import UserError
+from rt.backends import init_process
 
 PROG = "rtlab"
 
@@ -125,6 +126,7 @@ def main(argv=None) -> int:
     warnings.showwarning = _warning_line
     parser = build_parser()
     try:
+        init_process()
         args = parser.parse_args(argv)
         if args.command is None:
             parser.print_help()

@@ -1,7 +1,2 @@
-"""Errors a user can cause. The CLI prints them as one line and exits non-zero."""
-
-
-class UserError(Exception):
-    """A mistake in input (file, option, path, environment) that the user can fix."""
-
-    exit_code = 2
+"""The old spelling of core.errors."""
+from core.errors import UserError  # noqa: F401

@@ -4,8 +4,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from app.camera import Camera
-from app.options import Options
 from app.profiler import Profiler
+from core.options import Options
+from rt.backend import FrameInputs
 
 
 @dataclass
@@ -22,7 +23,10 @@ class Frame:
     environment: object  # scenes.model.Environment in effect (scene's or env= option)
     index: int = 0  # frames since the last reset (accumulation index)
     seed: int = 0
-    channels: dict = field(default_factory=dict)
+    mode: str = "forward"  # the pass mode (--pass): app/graph.py
+    backend: object = None  # rt.backend.Backend of the ray-traced passes, when the mode has any
+    channels: dict = field(default_factory=dict)  # channel name -> texture, image or value
+    wanted: frozenset = frozenset()  # the channels the graph reads from the pass now running
 
     @property
     def aspect(self) -> float:
@@ -31,3 +35,8 @@ class Frame:
     def view_proj(self, camera: Camera | None = None):
         cam = camera or self.camera
         return cam.projection_matrix(self.aspect) @ cam.view_matrix()
+
+    def backend_inputs(self, gbuffer: dict | None) -> FrameInputs:
+        """This frame as a ray-tracing backend takes it (gbuffer: the packed raster G-buffer)."""
+        return FrameInputs(self.camera, self.prev_camera, self.width, self.height, self.environment, self.options,
+                           self.seed, self.index, gbuffer)

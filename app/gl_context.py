@@ -9,7 +9,7 @@ import re
 from functools import lru_cache
 from pathlib import Path
 
-from app.errors import UserError
+from core.errors import UserError
 
 SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders"
 INCLUDE = re.compile(r'^#include "([^"]+)"\s*$', re.MULTILINE)

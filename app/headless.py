@@ -5,12 +5,12 @@ import time
 from pathlib import Path
 
 from app.camera import Camera, parse_camera
-from app.errors import UserError
 from app.gl_context import create_headless_context
 from app.image_io import write_npy, write_png
 from app.options import Options
 from app.passes import check_pass
 from app.renderer import Renderer
+from core.errors import UserError
 from scenes.loaders import load_scene
 
 

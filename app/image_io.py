@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.errors import UserError
+from core.errors import UserError
 
 
 @contextmanager

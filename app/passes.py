@@ -1,27 +1,45 @@
-"""Pass names of the CLI contract and the ray-traced pass objects."""
-from app.errors import UserError
-from app.raster.channel_view import CHANNEL_VIEWS
+"""Pass names of the CLI contract, and every pass's class: importing this module registers
+every pass's option group (core.options)."""
+from app.raster.channel_view import CHANNEL_VIEWS, ChannelViewPass
+from app.raster.forward import ForwardLightingPass
+from app.raster.gbuffer import GBufferPass
+from app.raster.gbuffer_pack import GBufferPackPass
+from app.raster.postprocess import AccumulationPass, DisplayPass
+from app.raster.shadow_maps import ShadowMapPass
+from app.raster.ssao import SSAOPass
+from core.errors import UserError
+from rt import hybrid  # noqa: F401  (registers the hybrid group)
+from rt.ao import AOPass
+from rt.gi import GIPass
+from rt.pass_base import GBufferViewPass, PrimaryPass
+from rt.reference import ReferencePass
+from rt.reflections import ReflectionsPass
+from rt.shadows import ShadowsPass
 
 RASTER = ("forward",)
 RAY_TRACED = ("shadows", "reflections", "gi", "ao", "hybrid", "reference")
 ALL = RASTER + RAY_TRACED + CHANNEL_VIEWS
 
-
-def RT_PASSES() -> dict:
-    """One object per CPU ray-traced pass (hybrid is composed by the renderer)."""
-    from rt.ao import AOPass
-    from rt.gi import GIPass
-    from rt.reference import ReferencePass
-    from rt.reflections import ReflectionsPass
-    from rt.shadows import ShadowsPass
-
-    return {p.name: p for p in (ShadowsPass(), ReflectionsPass(), GIPass(), AOPass(), ReferencePass())}
+GL_PASSES = (GBufferPass, GBufferPackPass, ShadowMapPass, SSAOPass, ForwardLightingPass, ChannelViewPass,
+             AccumulationPass, DisplayPass)  # made with the GL context
+RT_PASSES = (PrimaryPass, ShadowsPass, ReflectionsPass, GIPass, AOPass, ReferencePass, GBufferViewPass)
 
 
-def register_all_options() -> None:
-    """Import the passes so their option groups exist (they register on import)."""
-    RT_PASSES()
-    import rt.hybrid  # noqa: F401
+def create_passes(ctx) -> dict:
+    """One instance of every pass, by name (the graph's nodes name them: app/graph.py)."""
+    passes = [cls(ctx) for cls in GL_PASSES] + [cls() for cls in RT_PASSES]
+    return {p.name: p for p in passes}
+
+
+def option_groups(pass_classes) -> list[str]:
+    """The option groups of these passes (their own, then the ones they also read)."""
+    groups = []
+    for cls in pass_classes:
+        groups += ([cls.name] if cls.options is not None else []) + list(cls.option_groups)
+    return list(dict.fromkeys(groups))
+
+
+PASS_CLASSES = {cls.name: cls for cls in GL_PASSES + RT_PASSES}
 
 
 def check_pass(name: str) -> str:

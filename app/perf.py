@@ -1,7 +1,7 @@
 """`rtlab bench --perf`: how close each ray-traced pass gets to Embree's own throughput.
 
 For every pass, scene and size: the pass's CPU time, the rays it traced, and the time
-Embree alone (rt/embree.py, no sampling or shading) needs for the very same ray batches
+Embree alone (rt/embree/rtcore.py, no sampling or shading) needs for the very same ray batches
 replayed in the same run with the same chunking and threads. efficiency = raw trace time /
 pass time, each the fastest of the frames timed (pass frames and replays alternate; the
 medians are kept too). The timed frames run as a user's do (AO, shadows, GI and reflections as
@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from app.camera import Camera
-from app.errors import UserError
 from app.gl_context import create_headless_context
 from app.headless import parse_size
 from app.image_io import write_text
 from app.machine import machine_info, machine_label, usable_cores
 from app.options import Options
 from app.renderer import Renderer
+from core.errors import UserError
 from scenes.loaders import load_scene
 
 PASSES = ("shadows", "ao", "gi", "reflections", "reference")
@@ -151,7 +151,7 @@ def run_perf(args) -> int:
         set_threads(renderer, cores)
         renderer.release()
     # acceleration structure build vs triangle count
-    from rt.tracer import EmbreeTracer
+    from rt.embree.tracer import EmbreeTracer
 
     for level in ((1, 2) if quick else (1, 2, 3, 4, 5)):
         scene = load_scene(f"park:{level}")

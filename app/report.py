@@ -7,10 +7,10 @@ import html
 import json
 from pathlib import Path
 
-from app.errors import UserError
 from app.image_io import atomic_path, write_text
 from app.machine import machine_label
 from app.recommend import STUDY, recommend, rule_text
+from core.errors import UserError
 
 TECHNIQUES = [
     ("Reflections", "reflections"), ("Shadows (all lights)", "shadows_all"), ("Shadows (one light)", "shadows_one"),

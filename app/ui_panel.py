@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.errors import UserError
+from app.graph import option_groups
 from app.passes import ALL
+from core.errors import UserError
 
 KEYS_HELP = [
     ("W A S D", "move"), ("Q / E", "down / up"), ("right mouse drag", "look"), ("Shift / Ctrl", "faster / slower"),
@@ -53,10 +54,8 @@ def draw_option(imgui, options, key: str) -> bool:
 
 
 def option_keys_for(options, pass_name: str) -> list[str]:
-    """The option keys the active pass reads (hybrid: its toggles, then the swapped effects' own)."""
-    groups = {"hybrid": ["hybrid", "shadows", "ao", "reflections", "gi", "forward"],
-              "reference": ["reference", "reflections"]}.get(pass_name, [pass_name])
-    return [k for g in groups for k in options.keys() if k.startswith(g + ".")]
+    """The option keys of the mode's graph (app/graph.py): the mode's own, then its passes'."""
+    return [k for g in option_groups(pass_name) for k in options.keys() if k.startswith(g + ".")]
 
 
 class Panel:

@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 
 from app.camera import Camera
-from app.errors import UserError
 from app.fly_camera import FlyCamera, FlyInput
 from app.gl_context import fullscreen, set_uniform, wrap_current_context
 from app.headless import parse_size
@@ -27,6 +26,7 @@ from app.options import Options
 from app.passes import check_pass
 from app.renderer import Renderer
 from app.ui_panel import Panel
+from core.errors import UserError
 from scenes.builtin import DEFAULT_SCENE
 from scenes.loaders import load_scene
 from scenes.model import View

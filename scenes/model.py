@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.errors import UserError
+from core.errors import UserError
 
 
 @dataclass

@@ -7,6 +7,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+
+from rt.backends import init_process  # noqa: E402
+
+init_process()  # before any test module imports a backend's kernels
 GOLDEN = ROOT / "screenshots" / "golden"
 FAILURES = ROOT / "tests" / "_failures"
 

@@ -3,7 +3,7 @@ against the analytic sky of scenes/model.py, which the raster shaders share."""
 import numpy as np
 import pytest
 
-from rt import gather, kernels
+from rt.embree import gather, kernels
 from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH, sky_radiance
 
 

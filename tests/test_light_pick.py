@@ -1,7 +1,7 @@
-"""The per-point light weights that one-light sampling picks by (rt/raygen.py)."""
+"""The per-point light weights that one-light sampling picks by (rt/embree/raygen.py)."""
 import numpy as np
 
-from rt import raygen
+from rt.embree import raygen
 
 
 def reference_weights(P, N, guide):
@@ -78,7 +78,7 @@ def _lights():
 
 def reference_one_light(P, N, keys, dim, analytic, emitters, guide, far):
     """Per point: the light picked, the direction, distance and light carried (x cos) of its ray."""
-    from rt.kernels import uniform
+    from rt.embree.kernels import uniform
 
     kind, pos, d, rad, cos_out, spot_scale, cos_ang, _ = analytic
     start, rows, keep, alias = emitters

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from app.errors import UserError
+from core.errors import UserError
 from scenes.loaders import load_scene
 from tests.gltf_writer import png_bytes, quad_document, write_glb, write_gltf
 

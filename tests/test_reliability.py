@@ -9,9 +9,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.camera import Camera
-from app.errors import UserError
 from app.options import Options
 from app.renderer import Renderer
+from core.errors import UserError
 from scenes.builder import SceneBuilder, box, grid, trs
 from scenes.loaders import load_scene
 from tests.gltf_writer import png_bytes, quad_document, write_glb, write_gltf

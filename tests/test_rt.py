@@ -182,10 +182,10 @@ def prepared_frame(gl, name: str, size=(96, 54)):
 def test_packed_gbuffer_matches_float_targets(gl):
     """The 24-byte G-buffer the CPU reads back holds what the float targets hold."""
     from app.raster.upload import read_rgba
-    from rt.gbuffer import from_raster
+    from rt.embree.gbuffer import from_raster
 
     r, cam, job = prepared_frame(gl, "cafe")
-    gb = from_raster(job.readback, cam, 96, 54)
+    gb = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54)
     ch = {n: read_rgba(job.frame.channels[n]).reshape(-1, 4) for n in
           ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")}
     i, s = gb.index, gb.surface
@@ -208,12 +208,12 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
     """Rays from columns g0.. of the G-buffer's rows are those from the chunk's own points, for
     every kind of light and for cosine rays (cafe: emissive clusters; temple: point lights;
     street: the sun)."""
-    from rt import raygen, scratch
-    from rt.gbuffer import from_raster
-    from rt.sampling import PixelRng
+    from rt.embree import raygen, scratch
+    from rt.embree.gbuffer import from_raster
+    from rt.embree.sampling import PixelRng
 
     r, cam, job = prepared_frame(gl, name)
-    gb = from_raster(job.readback, cam, 96, 54)
+    gb = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54)
     data = r.ray_tracing().data
     lo, hi = len(gb.index) // 3, len(gb.index) // 3 + 1000  # 1000: not a whole number of steps
     keys = PixelRng(0, 0, gb.index[lo:hi], 1).key
@@ -236,12 +236,12 @@ def test_one_light_pick_of_a_lone_sun_is_that_suns_own_rays(gl):
     """With a sun as the only light (the street), the one-light estimator picks it everywhere
     with probability 1 (raygen._sun_rays): its rays are the sun's own shadow rays drawn from
     the same numbers (its dimensions dim + 1, dim + 2), origin, direction, length and light."""
-    from rt import scratch
-    from rt.gbuffer import from_raster
-    from rt.sampling import PixelRng
+    from rt.embree import scratch
+    from rt.embree.gbuffer import from_raster
+    from rt.embree.sampling import PixelRng
 
     r, cam, job = prepared_frame(gl, "street")
-    gb = from_raster(job.readback, cam, 96, 54)
+    gb = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54)
     lights = r.ray_tracing().data.lights
     assert lights.count == 1 and lights.analytic[0][0] == 2  # one light, a sun
     n = len(gb.index)
@@ -259,12 +259,12 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     """Given a scene handle, generators trace their rays as they make them and add what gets
     through: the same sums (to the bit) and ray counts as packing, tracing and adding after,
     for every kind of light, the one-light choice and AO rays."""
-    from rt import raygen, scratch
-    from rt.gbuffer import from_raster
-    from rt.sampling import PixelRng
+    from rt.embree import raygen, scratch
+    from rt.embree.gbuffer import from_raster
+    from rt.embree.sampling import PixelRng
 
     r, cam, job = prepared_frame(gl, name)
-    gb = from_raster(job.readback, cam, 96, 54)
+    gb = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54)
     data, tracer = r.ray_tracing().data, r.ray_tracing().tracer
     view = tracer.serial_view()
     assert view.inline_scene() == tracer.handle and tracer.inline_scene() in (0, tracer.handle)
@@ -309,11 +309,13 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
     chunked path's images and count the same rays, on 1 and 3 threads. Equal to the float32
     rounding of vectorised loops: points at a block's edge may take the scalar remainder of a
     vectorised loop in one path and the vector body in the other (GI's light weights: 1 ulp)."""
-    from rt.tracer import EmbreeTracer
+    from app.passes import PASS_CLASSES
+    from rt.embree.backend import EmbreeBackend
+    from rt.embree.tracer import EmbreeTracer
 
     scene = build_builtin(name)
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
-    frame_scene = EmbreeTracer.frame_scene
+    frame_scene, trace = EmbreeTracer.frame_scene, EmbreeBackend.trace
     for threads in (1, 3):
         for pass_name in ("ao", "shadows", "gi", "reflections"):
             got = []
@@ -323,13 +325,14 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
                 r.pass_outputs = True
                 tracer = r.ray_tracing().tracer
                 tracer.set_threads(threads)
-                rt_pass, outputs = r.rt_passes[pass_name], {}
+                rt_pass, outputs = PASS_CLASSES[pass_name], {}
 
-                def keep(rf, execute=rt_pass.execute, outputs=outputs):
-                    outputs.update((k, v.copy()) for k, v in execute(rf).items())
-                    return outputs
+                def keep(self, effect, channels=("radiance",), outputs=outputs):
+                    result = trace(self, effect, channels)
+                    outputs.update((k, v.copy()) for k, v in result.items())
+                    return result
 
-                monkeypatch.setattr(rt_pass, "execute", keep)
+                monkeypatch.setattr(EmbreeBackend, "trace", keep)
                 for _ in range(2):  # a second frame: other random numbers, the same buffers reused
                     r.render(cam, 80, 45, pass_name)
                 got.append((r.read_linear(), tracer.rays_traced, outputs))
@@ -340,17 +343,20 @@ def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypat
             for k in out_a:  # the passes' other outputs too (what hybrid views swap in)
                 assert np.allclose(out_a[k], out_b[k], rtol=1e-5, atol=1e-7), k
     monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
+    monkeypatch.setattr(EmbreeBackend, "trace", trace)
 
 
 def test_passes_make_radiance_only_unless_asked(gl, monkeypatch):
     """By default (Renderer.pass_outputs False) a pass returns radiance alone, in the whole-frame
     kernels and the chunked path, and the image is the very same as when its other outputs
     (rt_direct, rt_ao, ...) are made too."""
-    from rt.tracer import EmbreeTracer
+    from app.passes import PASS_CLASSES
+    from rt.embree.backend import EmbreeBackend
+    from rt.embree.tracer import EmbreeTracer
 
     scene = build_builtin("cafe")
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
-    frame_scene = EmbreeTracer.frame_scene
+    frame_scene, trace = EmbreeTracer.frame_scene, EmbreeBackend.trace
     for whole in (True, False):
         monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
         for pass_name in ("ao", "shadows", "gi", "reflections"):
@@ -358,27 +364,28 @@ def test_passes_make_radiance_only_unless_asked(gl, monkeypatch):
             for wanted in (False, True):
                 r = make(gl, scene)
                 r.pass_outputs = wanted
-                rt_pass, keys = r.rt_passes[pass_name], []
+                rt_pass, keys = PASS_CLASSES[pass_name], []
 
-                def keep(rf, execute=rt_pass.execute, keys=keys):
-                    result = execute(rf)
+                def keep(self, effect, channels=("radiance",), keys=keys):
+                    result = trace(self, effect, channels)
                     keys.append(set(result))
                     return result
 
-                monkeypatch.setattr(rt_pass, "execute", keep)
+                monkeypatch.setattr(EmbreeBackend, "trace", keep)
                 r.render(cam, 80, 45, pass_name)
                 images.append(r.read_linear())
                 assert keys == [set(rt_pass.writes) if wanted else {"radiance"}], (pass_name, whole)
                 r.release()
             assert np.array_equal(images[0], images[1]) and images[0].std() > 0.01, (pass_name, whole)
     monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
+    monkeypatch.setattr(EmbreeBackend, "trace", trace)
 
 
 @pytest.mark.parametrize("env", ["sky", "0.1,0.2,0.3", "black"])
 def test_background_kernel_matches_environment(env):
     """The compiled environment lookup (backgrounds, missed GI rays) is scenes/model.py's."""
-    from rt.frame import RtFrame
-    from rt.gbuffer import CpuGBuffer
+    from rt.embree.frame import RtFrame
+    from rt.embree.gbuffer import CpuGBuffer
     from scenes.model import Environment
 
     rng = np.random.default_rng(3)
@@ -395,7 +402,7 @@ def test_background_kernel_matches_environment(env):
 
 
 def test_chunks_take_equal_shares_of_the_measured_cost():
-    from rt.tracer import EmbreeTracer as T
+    from rt.embree.tracer import EmbreeTracer as T
 
     n = 100_000
     assert T.balanced_bounds(n, 4).tolist() == [0, 25_000, 50_000, 75_000, 100_000]
@@ -435,16 +442,16 @@ def test_chunk_balance_keeps_the_image(gl):
 
 
 def test_reused_gbuffer_matches_a_fresh_one_and_keeps_its_memory(gl):
-    from rt.gbuffer import from_raster
+    from rt.embree.gbuffer import from_raster
 
     r, cam, job = prepared_frame(gl, "street")
-    fresh = from_raster(job.readback, cam, 96, 54)
-    reused = from_raster(job.readback, cam, 96, 54, reuse=True)
+    fresh = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54)
+    reused = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54, reuse=True)
     for a, b in [(fresh.index, reused.index), (fresh.covered, reused.covered), (fresh.depth, reused.depth),
                  (fresh.view_dir, reused.view_dir)] + [(getattr(fresh.surface, f), getattr(reused.surface, f))
                                                        for f in fresh.surface.__dataclass_fields__]:
         assert np.array_equal(a, b)
-    again = from_raster(job.readback, cam, 96, 54, reuse=True)
+    again = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54, reuse=True)
     assert np.shares_memory(again.surface.p, reused.surface.p) and np.shares_memory(again.view_dir, reused.view_dir)
     r.release()
 
@@ -452,15 +459,15 @@ def test_reused_gbuffer_matches_a_fresh_one_and_keeps_its_memory(gl):
 def test_frame_keys_are_each_chunks_own(gl):
     """Keys made for the whole frame (for_chunks' streams) are, chunk by chunk, those the chunk
     would make itself, so naming a stream changes no image."""
-    from rt.frame import RtFrame
-    from rt.gbuffer import from_raster
-    from rt.sampling import PixelRng
+    from rt.embree.frame import RtFrame
+    from rt.embree.gbuffer import from_raster
+    from rt.embree.sampling import PixelRng
 
     r, cam, job = prepared_frame(gl, "arcade")
     rt = r.ray_tracing()
     rt.tracer.set_threads(3)
     rt.tracer.min_chunk = 256  # several chunks on a small image
-    gb = from_raster(job.readback, cam, 96, 54)
+    gb = from_raster(job.frame.channels["gbuffer_packed"], cam, 96, 54)
     rf = RtFrame(rt.data, rt.tracer, gb, r.environment(), r.options, seed=7, index=3, buffers={})
     seen = {}
 
@@ -471,7 +478,7 @@ def test_frame_keys_are_each_chunks_own(gl):
     assert len(seen) > 1 and 2 in rf.keys
     for c, keys, dim in seen.values():
         assert np.array_equal(keys, PixelRng(7, 3, gb.index[c], 2).key) and dim == 0
-    from rt import raygen
+    from rt.embree import raygen
 
     # and the keys that whole-frame kernels make block by block
     assert np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(2)), PixelRng(7, 3, gb.index[5:70], 2).key)

@@ -3,7 +3,7 @@ import hashlib
 import numpy as np
 import pytest
 
-from app.errors import UserError
+from core.errors import UserError
 from scenes.builtin import BUILTINS, build_builtin, split_name
 from scenes.model import Environment, Scene, fix_normals
 

@@ -3,7 +3,7 @@ and Embree called directly against embreex's own binding on a built-in scene."""
 import numpy as np
 import pytest
 
-from rt.tracer import INF, EmbreeTracer
+from rt.embree.tracer import INF, EmbreeTracer
 
 TRIANGLE = (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32))
 
@@ -28,12 +28,12 @@ def test_occlusion_respects_tmax_and_leaves_it_unchanged(threads):
 
 
 def test_direct_embree_calls_match_embreex():
-    """rt/embree.py's kernels give embreex's results to the bit on random rays through the
+    """rt/embree/rtcore.py's kernels give embreex's results to the bit on random rays through the
     arcade: hits, distances, barycentrics and occlusion (struct layout, flags, robust mode)."""
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
 
-    from rt import embree
+    from rt.embree import rtcore as embree
     from scenes.loaders import load_scene
 
     scene = load_scene("arcade")
@@ -66,7 +66,7 @@ def test_direct_embree_calls_match_embreex():
 @pytest.mark.parametrize("workers", [1, 3])
 def test_parallel_kernels_trace_as_the_serial_ones(workers):
     """The parallel replay kernels (bench --perf's raw time) give the serial kernels' results."""
-    from rt import embree
+    from rt.embree import rtcore as embree
 
     positions = np.random.default_rng(2).uniform(-1, 1, (3000, 3)).astype(np.float32)
     indices = np.arange(3000, dtype=np.int32).reshape(-1, 3)
@@ -90,29 +90,32 @@ def test_parallel_kernels_trace_as_the_serial_ones(workers):
 
 
 def test_kernel_cache_follows_every_source(tmp_path):
-    """Compiled kernels are cached per version of all of rt/'s sources: a change to any one
-    module (whose code other modules' kernels carry) moves the cache."""
+    """Compiled kernels are cached per version of all of rt/embree/'s sources: a change to any
+    one module (whose code other modules' kernels carry) moves the cache."""
     import shutil
     from pathlib import Path
 
-    import rt
+    from rt.embree import process
 
-    src = tmp_path / "rt"
-    shutil.copytree(Path(rt.__file__).parent, src, ignore=shutil.ignore_patterns("__pycache__"))
-    first = rt.cache_dir(src)
-    assert rt.cache_dir(src) == first
+    src = tmp_path / "embree"
+    shutil.copytree(Path(process.__file__).parent, src, ignore=shutil.ignore_patterns("__pycache__"))
+    first = process.cache_dir(src)
+    assert process.cache_dir(src) == first
     (src / "raygen.py").write_text((src / "raygen.py").read_text() + "\n# changed\n")
-    assert rt.cache_dir(src) != first
+    assert process.cache_dir(src) != first
 
 
 def test_freed_scratch_is_reused_without_page_faults():
-    """Importing rt keeps freed memory for reuse (rt/memory.py): a worker thread's second round
+    """The Embree backend's process set-up keeps freed memory for reuse (rt/embree/memory.py,
+    rt/embree/process.py, run by conftest): a worker thread's second round
     of frame-sized scratch arrays lands on pages it already touched (glibc's defaults: ~1,300
     faults here)."""
     import ctypes
     import threading
 
-    import rt  # noqa: F401  (sets malloc's thresholds)
+    from rt.embree import process
+
+    process.init()  # sets malloc's thresholds (once per process)
 
     if not hasattr(ctypes.CDLL(None), "gnu_get_libc_version"):
         pytest.skip("malloc's thresholds are glibc's")
@@ -140,7 +143,7 @@ def test_freed_scratch_is_reused_without_page_faults():
 @pytest.mark.parametrize("n,workers", [(0, 2), (1, 2), (5000, 2), (40000, 1), (921600, 1), (580000, 2), (921600, 2),
                                        (921600, 16)])
 def test_frame_blocks_cover_every_point_once_and_shrink_at_the_end(n, workers):
-    from rt.raygen import FRAME_BLOCK, block_bounds, block_size, next_block
+    from rt.embree.raygen import FRAME_BLOCK, block_bounds, block_size, next_block
 
     bounds = block_bounds(n, workers)
     assert bounds[0] == 0 and bounds[-1] == n

@@ -5,6 +5,7 @@ import numpy as np
 
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
+from core.passes import Pass
 
 CHANNEL_VIEWS = ("albedo", "normal", "position", "depth", "roughness", "emissive", "motion")
 SOURCES = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face", "g_motion")
@@ -28,7 +29,9 @@ def display_mapping(channel: str, scene, camera) -> tuple | None:
     return None  # emissive: radiance
 
 
-class ChannelViewPass:
+class ChannelViewPass(Pass):
+    """The G-buffer channel the mode names (frame.mode: albedo, normal, ...), as radiance."""
+
     name = "channel_view"
     reads = SOURCES
     writes = ("radiance",)
@@ -37,10 +40,8 @@ class ChannelViewPass:
         self.ctx = ctx
         self.targets = Targets(ctx, {"v": (4, "f4")})
 
-    def reset(self) -> None:
-        pass
-
-    def execute(self, frame, channel: str) -> None:
+    def execute(self, frame) -> None:
+        channel = frame.mode
         t = self.targets.ensure(frame.width, frame.height)
         prog, vao = fullscreen(self.ctx, "channel_view.frag")
         with frame.profiler.gpu(self.ctx, "channel_view"):

@@ -2,17 +2,46 @@
 pre-pass), lights every fragment with all lights, shadow maps, SSAO and env reflections."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from app.gl_context import fullscreen, set_uniform
 from app.raster.gpu_scene import ENV_KIND
 from app.raster.lights import pack
 from app.raster.targets import Targets
+from core.options import opt, register_group
+from core.passes import Pass
+
+RT_INPUTS = ("rt_direct", "rt_ao", "rt_reflection", "rt_indirect")  # hybrid's ray-traced images
 
 
-class ForwardLightingPass:
-    name = "forward_lighting"
-    reads = ("depth", "ssao", "sun_shadow", "point_shadow")
+@dataclass
+class ForwardOptions:
+    shadow_maps: bool = opt(True, "shadow maps for the sun and the strongest point/spot lights")
+    shadow_map_size: int = opt(2048, "sun shadow map resolution (texels)", 256, 8192)
+    pcf_radius: int = opt(2, "PCF kernel half-width in texels (0 = hard shadows)", 0, 8)
+    point_shadow_budget: int = opt(4, "how many point/spot lights get cube shadow maps", 0, 32)
+    point_shadow_size: int = opt(512, "cube shadow map face resolution (texels)", 64, 4096)
+    ssao: bool = opt(True, "screen-space ambient occlusion on the ambient term")
+    ssao_radius: float = opt(0.5, "SSAO hemisphere radius (m)", 0.01, 100.0)
+    ssao_samples: int = opt(16, "SSAO kernel samples per pixel", 1, 64)
+    ssao_blur: bool = opt(True, "4x4 blur of the SSAO result")
+    env_reflections: bool = opt(True, "environment cube map reflections on smooth surfaces")
+    roughness_threshold: float = opt(0.25, "env reflections on surfaces smoother than this", 0.0, 1.0)
+    ambient: float = opt(1.0, "scale of the ambient term (environment + the scene's ambient hint)", 0.0, 100.0)
+    emissive_lights: bool = opt(True, "light from emissive surfaces through proxy point lights")
+    fxaa: bool = opt(True, "FXAA after tone mapping")
+
+
+
+register_group("forward", ForwardOptions)
+
+
+class ForwardLightingPass(Pass):
+    name = "forward"
+    options = ForwardOptions
+    reads = ("depth", "ssao", "sun_shadow", "point_shadow", "lights", "shadow_info") + RT_INPUTS
     writes = ("radiance",)
 
     def __init__(self, ctx):
@@ -21,12 +50,9 @@ class ForwardLightingPass:
         self.ubo = ctx.buffer(reserve=128 * 64)
         self.dummy_ao = ctx.texture((1, 1), 1, np.ones(1, "f4").tobytes(), dtype="f4")
 
-    def reset(self) -> None:
-        pass
-
-    def execute(self, frame, lights, shadow_info, rt_inputs: dict | None = None) -> None:
-        """rt_inputs: hybrid textures by name (rt_direct, rt_ao, rt_reflection, rt_indirect)."""
-        rt_inputs = rt_inputs or {}
+    def execute(self, frame) -> None:
+        rt_inputs = {name: frame.channels[name] for name in RT_INPUTS if name in frame.channels}
+        lights, shadow_info = frame.channels["lights"], frame.channels["shadow_info"]
         opts = frame.options.group("forward")
         use_ssao = opts.ssao and "rt_ao" not in rt_inputs and "rt_indirect" not in rt_inputs
         ctx = self.ctx

@@ -5,6 +5,7 @@ import numpy as np
 
 from app.gl_context import set_uniform
 from app.raster.targets import Targets
+from core.passes import Pass
 
 CHANNELS = {
     "g_position": (4, "f4"),  # xyz, linear depth
@@ -16,17 +17,13 @@ CHANNELS = {
 }
 
 
-class GBufferPass:
+class GBufferPass(Pass):
     name = "gbuffer"
-    reads = ()
     writes = tuple(CHANNELS) + ("depth",)
 
     def __init__(self, ctx):
         self.ctx = ctx
         self.targets = Targets(ctx, CHANNELS, depth=True)
-
-    def reset(self) -> None:
-        pass
 
     def execute(self, frame) -> None:
         t = self.targets.ensure(frame.width, frame.height)

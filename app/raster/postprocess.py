@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 from app.gl_context import fullscreen, set_uniform
+from app.raster.channel_view import CHANNEL_VIEWS, display_mapping
 from app.raster.targets import Targets
+from core.passes import Pass
 
 
-class AccumulationPass:
+class AccumulationPass(Pass):
     """Running mean of the pass output while nothing changes; reset() restarts it."""
 
     name = "accumulation"
@@ -21,14 +23,16 @@ class AccumulationPass:
     def reset(self) -> None:
         self.count = 0
 
-    def execute(self, frame, source, enabled: bool, max_frames: int = 0):
+    def execute(self, frame) -> None:
+        source = frame.channels["radiance"]
+        enabled, max_frames = bool(frame.options.get("accumulate")), int(frame.options.get("max_frames"))
         if not enabled:
             self.count = 0
             frame.channels["accumulated"] = source
-            return source
+            return
         if max_frames and self.count >= max_frames:
             frame.channels["accumulated"] = self.ping["c"]
-            return self.ping["c"]
+            return
         self.ping.ensure(frame.width, frame.height)
         dst = self.pong.ensure(frame.width, frame.height)
         prog, vao = fullscreen(self.ctx, "accumulate.frag")
@@ -44,24 +48,29 @@ class AccumulationPass:
         self.ping, self.pong = self.pong, self.ping
         self.count += 1
         frame.channels["accumulated"] = self.ping["c"]
-        return self.ping["c"]
 
     def release(self) -> None:
         self.ping.release()
         self.pong.release()
 
 
-class DisplayPass:
-    """Exposure + ACES + sRGB (or a data channel's display mapping), then FXAA."""
+class DisplayPass(Pass):
+    """Exposure + ACES + sRGB (or a data channel's display mapping), then FXAA on the forward
+    and hybrid modes' images."""
 
-    name = "tonemap"
+    name = "display"
+    reads = ("accumulated",)
+    writes = ("display",)
 
     def __init__(self, ctx):
         self.ctx = ctx
         self.mapped = Targets(ctx, {"c": (4, "f1")})
         self.final = Targets(ctx, {"c": (4, "f1")})
 
-    def execute(self, frame, source, exposure: float, fxaa: bool, data_mapping=None):
+    def execute(self, frame) -> None:
+        source, exposure = frame.channels["accumulated"], frame.options.get("exposure")
+        fxaa = frame.mode in ("forward", "hybrid") and frame.options.get("forward.fxaa")
+        data_mapping = display_mapping(frame.mode, frame.scene, frame.camera) if frame.mode in CHANNEL_VIEWS else None
         mapped = self.mapped.ensure(frame.width, frame.height)
         prog, vao = fullscreen(self.ctx, "tonemap.frag")
         with frame.profiler.gpu(self.ctx, "tonemap"):
@@ -88,7 +97,6 @@ class DisplayPass:
                 fvao.render(vertices=3)
             out = final["c"]
         frame.channels["display"] = out
-        return out
 
     def release(self) -> None:
         self.mapped.release()

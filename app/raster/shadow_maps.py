@@ -6,7 +6,8 @@ import numpy as np
 
 from app.camera import Camera
 from app.gl_context import set_uniform
-from app.raster.lights import RasterLight
+from app.raster.lights import RasterLight, assign_shadow_slots, gather_lights
+from core.passes import Pass
 
 FACE_F = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], float)
 FACE_U = np.array([(0, -1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (0, -1, 0)], float)
@@ -48,18 +49,18 @@ def sun_matrix(light_dir: np.ndarray, camera: Camera, aspect: float, lo: np.ndar
     return proj @ view, float(max(mx[0] - mn[0], mx[1] - mn[1]))
 
 
-class ShadowMapPass:
+class ShadowMapPass(Pass):
+    """Shadow maps of the sun and the strongest point/spot lights for the forward pass (minimal
+    ones when ray-traced shadows, rt_direct, replace them), and the lights it shades with."""
+
     name = "shadow_maps"
-    reads = ()
-    writes = ("sun_shadow", "point_shadow")
+    reads = ("rt_direct",)  # optional
+    writes = ("sun_shadow", "point_shadow", "lights", "shadow_info")
 
     def __init__(self, ctx):
         self.ctx = ctx
         self.sun_tex = self.sun_fbo = None
         self.point_tex = self.point_fbo = None
-
-    def reset(self) -> None:
-        pass
 
     def _depth_target(self, attr: str, size: tuple):
         tex = getattr(self, attr + "_tex")
@@ -75,7 +76,16 @@ class ShadowMapPass:
             setattr(self, attr + "_fbo", self.ctx.framebuffer(depth_attachment=tex))
         return tex, getattr(self, attr + "_fbo")
 
-    def execute(self, frame, lights: list[RasterLight], slots: int, enabled: bool = True) -> dict:
+    def execute(self, frame) -> None:
+        opts = frame.options.group("forward")
+        lights = gather_lights(frame.scene, frame.gpu, opts.emissive_lights)
+        enabled = bool(opts.shadow_maps) and "rt_direct" not in frame.channels  # RT shadows replace the maps
+        slots = assign_shadow_slots(lights, frame.camera.eye, opts.point_shadow_budget if enabled else 0,
+                                    frame.scene.diagonal)
+        frame.channels["lights"] = lights
+        frame.channels["shadow_info"] = self._render(frame, lights, slots, enabled)
+
+    def _render(self, frame, lights: list[RasterLight], slots: int, enabled: bool) -> dict:
         """Render the maps; returns what forward.frag needs to look them up."""
         opts = frame.options.group("forward")
         ctx = self.ctx

@@ -5,6 +5,7 @@ import numpy as np
 
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
+from core.passes import Pass
 
 
 def ssao_kernel(n: int = 64, seed: int = 0) -> np.ndarray:
@@ -17,7 +18,10 @@ def ssao_kernel(n: int = 64, seed: int = 0) -> np.ndarray:
     return (v * (rng.random((n, 1)) ** 0.5) * scale[:, None]).astype(np.float32)
 
 
-class SSAOPass:
+class SSAOPass(Pass):
+    """Screen-space AO for the forward pass's ambient term; off when a ray-traced input
+    (rt_ao, rt_indirect) already holds the occlusion."""
+
     name = "ssao"
     reads = ("g_position", "g_normal", "g_face")
     writes = ("ssao",)
@@ -33,11 +37,10 @@ class SSAOPass:
         self.noise.filter = (ctx.NEAREST, ctx.NEAREST)
         self.kernel = ssao_kernel()
 
-    def reset(self) -> None:
-        pass
-
     def execute(self, frame) -> None:
         opts = frame.options.group("forward")
+        if not opts.ssao or "rt_ao" in frame.channels or "rt_indirect" in frame.channels:
+            return
         raw = self.raw.ensure(frame.width, frame.height)
         prog, vao = fullscreen(self.ctx, "ssao.frag")
         with frame.profiler.gpu(self.ctx, "ssao"):

@@ -4,7 +4,7 @@ A scene name may carry a detail level: `park:4`. Detail scales the triangle coun
 """
 from __future__ import annotations
 
-from app.errors import UserError
+from core.errors import UserError
 from scenes.builtin import arcade, cafe, park, street, temple
 
 BUILTINS = {

@@ -4,7 +4,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-from app.errors import UserError
+from core.errors import UserError
 
 EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.errors import UserError
+from core.errors import UserError
 
 
 def safe_child(scene_file: Path, relative: str) -> Path:

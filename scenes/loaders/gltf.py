@@ -14,7 +14,7 @@ from urllib.parse import unquote
 
 import numpy as np
 
-from app.errors import UserError
+from core.errors import UserError
 from scenes.loaders.common import check_memory, compute_normals, decode_image, safe_child
 from scenes.model import Environment, Light, Material, Scene, View
 

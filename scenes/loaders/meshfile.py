@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.errors import UserError
+from core.errors import UserError
 from scenes.loaders.common import check_memory, compute_normals, safe_child, srgb_to_linear
 from scenes.model import Environment, Material, Scene
 

@@ -2,15 +2,14 @@
 misses, gather what the hits need, and write a chunk's pixels into the frame's images.
 
 Between Embree calls a chunk otherwise runs NumPy glue (masks, fancy indexing, temporaries)
-that holds the GIL; with 16 tracing threads that glue serialises and caps the speed-up
-(measured on the 16-core host: AO scaled x2.7 at 16 threads while Embree alone scaled x11).
+that holds the GIL; with many tracing threads that glue serialises and caps the speed-up.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-from rt.kernels import environment_rgb, environment_terms
+from rt.embree.kernels import environment_rgb, environment_terms
 
 INV_PI = np.float32(1 / np.pi)
 

@@ -5,7 +5,7 @@ Points come as structure-of-arrays rows (`surface_soa`: px, py, pz, nx, ny, nz, 
 columns g0 to g0 + len(keys) of G: a chunk of the G-buffer's rows (the unpack writes them) or
 a whole Surface.soa(); `idx` counts from g0. Each generator walks the points in steps of RUN:
 a loop over unit-stride rows computes the step's rays into a small block (it vectorises; over
-(n, 3) arrays it did not: 14 vs 2.5 ns a point for AO rays on the 2-core machine), then a
+(n, 3) arrays it does not), then a
 short serial loop packs those that carry something: origins, directions, tmax and the light
 they carry come out packed in front of the buffers, with `idx[j]` the point ray j belongs to,
 and the count is returned. The packed buffers go to Embree as they are. Serial and GIL-free:
@@ -15,7 +15,7 @@ Occlusion rays may instead be traced where they are made: given an Embree scene 
 0), a generator traces each ray of a step as the pack loop would have written it and adds
 what gets through to `acc` (light: acc[i] += the light carried; AO: acc[i, 0] += 1), so that
 a chunk's sampling, tracing and gathering are one call without the GIL, and no ray is
-written out (rt/embree.py; `Tracer.inline_scene` says when a tracer allows it, else the
+written out (rtcore.py; `Tracer.inline_scene` says when a tracer allows it, else the
 caller traces the packed rays). The rays, and so the images, are the same either way.
 
 sin/cos come from a short polynomial (`sin_turns`), which vectorises where libm's does not and
@@ -28,8 +28,8 @@ import math
 import numpy as np
 from numba import njit
 
-from rt import embree
-from rt.kernels import pixel_key, take_next, uniform
+from rt.embree import rtcore as embree
+from rt.embree.kernels import pixel_key, take_next, uniform
 
 F = np.float32
 ZERO, HALF, ONE, TWO = F(0.0), F(0.5), F(1.0), F(2.0)
@@ -266,7 +266,7 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
     """Three loops: each point's numbers (vectorises: the hash is integer arithmetic), the
     triangle it picks (alias method: dependent loads) with its row copied into the columns of
     S, then the rays to points on those triangles, from unit-stride rows (vectorises; reading
-    rows[t] there kept it scalar: 20-28 ns a point on the park's clusters)."""
+    rows[t] there would keep it scalar)."""
     span = F(hi - lo)
     for j in range(nb):
         key = keys[j]
@@ -318,11 +318,8 @@ def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin
     return m
 
 
-BLOCK = 256  # points whose light weights are computed together, one light at a time (vectorises). 2-core
-# machine, 1 thread, a point's pick and its shadow ray traced inline, variants alternated: 64 -> 256 took
-# the temple's 50 lights from 179 to 161 ns a primary point and 206 to 185 a bounce hit, the cafe's 31
-# from 206 to 200 and 261 to 243, the arcade's 24 from 116 to 113 and 146 to 140; one light or few
-# (street, park) unchanged; 32 and 512 slower
+BLOCK = 256  # points whose light weights are computed together, one light at a time (vectorises);
+# the fastest of 32-512 on many-light scenes (report/HISTORY.md, eighth round)
 SCRATCH_ROWS = 6  # one_light_shadow_rays' scratch rows besides the weights
 
 
@@ -578,9 +575,7 @@ def add_open(count, idx, blocked, m):
 def block_size(n, workers):
     """Points per work item of the whole-frame kernels: n / (BLOCKS_PER_WORKER x workers),
     within FRAME_BLOCK's bounds. A pass's steps run a block at a time, and larger blocks keep
-    each step's data (the BVH while tracing, mesh rows while shading) in the cache longer
-    (2-core machine, GI at 1280x720: 2048-point blocks ran 2-12 % slower than the chunked
-    path, whose steps each cover a thread's whole share; 32768-point blocks 4-8 % faster)."""
+    each step's data (the BVH while tracing, mesh rows while shading) in the cache longer."""
     return min(max(n // (workers * BLOCKS_PER_WORKER), FRAME_BLOCK[0]), FRAME_BLOCK[1])
 
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.shading import SceneData, Surface
+from rt.embree.shading import SceneData, Surface
 
 
 @dataclass
@@ -29,11 +29,11 @@ class CpuGBuffer:
 def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
     """packed: the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), as GL reads
     it: uint32 H x W x 4 ("geometry") and H x W x 2 ("material"), bottom row first.
-    reuse: build it in this thread's scratch buffers (rt/scratch.py), valid until the thread's
+    reuse: build it in this thread's scratch buffers (rt/embree/scratch.py), valid until the thread's
     next call: fresh arrays are ~80 MB a frame at 1280x720, and their page faults cost more than
-    the unpacking (2-core machine: 130-160 ms a frame, 17.5 ms reused)."""
-    from rt import scratch
-    from rt.kernels import covered_pixels, unpack_gbuffer
+    the unpacking."""
+    from rt.embree import scratch
+    from rt.embree.kernels import covered_pixels, unpack_gbuffer
 
     n = width * height
 
@@ -60,9 +60,9 @@ def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = Fal
 
 def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
     """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse as from_raster."""
-    from rt import scratch
-    from rt.kernels import camera_rays
-    from rt.shading import empty_surface
+    from rt.embree import scratch
+    from rt.embree.kernels import camera_rays
+    from rt.embree.shading import empty_surface
 
     n = width * height
     r, u, f = (x.astype(np.float64) for x in camera.basis())

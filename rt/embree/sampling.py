@@ -32,7 +32,7 @@ class PixelRng:
 
     def __init__(self, seed: int, frame: int, pixels: np.ndarray, stream: int = 0, out: np.ndarray | None = None):
         """out: a (len(pixels),) uint64 array to hold the keys (a reused buffer), else a new one."""
-        from rt.kernels import pixel_keys
+        from rt.embree.kernels import pixel_keys
 
         base = key_base(seed, frame, stream)
         self.key = np.empty(pixels.shape[0], np.uint64) if out is None else out
@@ -52,7 +52,7 @@ class PixelRng:
 
     def next(self, k: int = 1) -> np.ndarray:
         """(N,k) float32 uniforms (the same numbers the kernels draw)."""
-        from rt.kernels import uniforms
+        from rt.embree.kernels import uniforms
 
         first = self.reserve(k)
         out = np.empty((self.key.shape[0], k), np.float32)

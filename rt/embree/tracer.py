@@ -2,7 +2,7 @@
 
 Passes only see `Tracer`: closest hits and occlusion on whole float32 ray arrays. A second
 backend (a GPU one, say) implements the same two methods without touching the passes.
-Embree is called from compiled code without the GIL (rt/embree.py), so rays are split into
+Embree is called from compiled code without the GIL (rt/embree/rtcore.py), so rays are split into
 chunks and traced on a thread pool.
 """
 from __future__ import annotations
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt import embree
-from rt.kernels import serial_kernels
+from rt.embree import rtcore as embree
+from rt.embree.kernels import serial_kernels
 
 INF = np.float32(1e30)
 
@@ -47,7 +47,7 @@ class Tracer:
 
     def inline_scene(self) -> int:
         """An Embree scene handle with which compiled ray generators may trace their occlusion
-        rays themselves as they make them (rt/raygen.py), or 0: the caller traces them with
+        rays themselves as they make them (rt/embree/raygen.py), or 0: the caller traces them with
         occluded(). Whoever traces adds to rays_traced."""
         return 0
 
@@ -78,9 +78,8 @@ def default_threads() -> int:
 
 
 class EmbreeTracer(Tracer):
-    # chunks_per_thread: measured on the 2-core machine with 0.9M incoherent rays, 1 to 64 chunks
-    # per thread were within 5 % of each other (occluded ~44 ms, intersect ~88 ms); 4 keeps threads
-    # busy when some chunks are cheap (sky rays) without per-call overhead from tiny chunks.
+    # chunks_per_thread: 4 keeps threads busy when some chunks are cheap (sky rays) without
+    # per-call overhead from tiny chunks (report/HISTORY.md has the measurements).
     def __init__(self, positions: np.ndarray, indices: np.ndarray, threads: int | None = None,
                  chunks_per_thread: int = 4, min_chunk: int = 4096):
         self.scene = embree.EmbreeScene(positions, indices)  # the BVH is built here
@@ -89,7 +88,7 @@ class EmbreeTracer(Tracer):
         self.chunks_per_thread = chunks_per_thread
         self.min_chunk = min_chunk
         # map_chunks: each chunk's Python glue holds the GIL a little, so fewer, larger chunks
-        # than for bare tracing (16-core host, 1280x720: one per thread ran AO in 17 ms, four in 27)
+        # than for bare tracing
         self.chunks_per_worker = 1
         self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_traced = 0
@@ -222,8 +221,8 @@ class EmbreeTracer(Tracer):
     def balanced_bounds(cls, n: int, count: int, profile=None) -> np.ndarray:
         """count + 1 chunk bounds over range(n): equal runs, or with a cost profile
         (cost_profile), equal shares of its cost (plus a tenth spread evenly, so that no part
-        counts as free). The sky costs little and the floor much: equal runs of rows left
-        threads idle (16-core host, arcade AO: chunks took 7.4 to 14 ms)."""
+        counts as free). The sky costs little and the floor much: equal runs of rows would leave
+        threads idle."""
         if profile is None or count <= 1:
             return np.array([n * k // count for k in range(count + 1)])
         share = np.maximum(profile, 0.0) / max(float(np.maximum(profile, 0.0).sum()), 1e-12)

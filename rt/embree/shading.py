@@ -6,7 +6,7 @@ triangles emit radiance Le and are area lights: each emissive cluster (scenes/mo
 light, and within it a triangle is picked with probability ~ area x power. The spot cone
 falloff is glTF's (squared linear ramp in cos), as in shaders/forward.frag.
 
-The per-point maths runs in compiled kernels (rt/kernels.py); this module owns the data and
+The per-point maths runs in compiled kernels (rt/embree/kernels.py); this module owns the data and
 the order of work: build rays, trace them in one batch, combine.
 """
 from __future__ import annotations
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt import kernels, raygen, scratch
-from rt.tracer import Hits, Tracer
+from rt.embree import kernels, raygen, scratch
+from rt.embree.tracer import Hits, Tracer
 
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 INV_PI = np.float32(1 / np.pi)
@@ -43,7 +43,7 @@ class Surface:
         return self.p.shape[0]
 
     def soa(self, name: str | None = None) -> tuple[np.ndarray, int]:
-        """What the ray generators read (rt/raygen.py): (rows, first column), the rows (9, n)
+        """What the ray generators read (rt/embree/raygen.py): (rows, first column), the rows (9, n)
         px, py, pz, nx, ny, nz, ngx, ngy, ngz, from column 0; in this thread's scratch buffer
         `name` when given."""
         out = np.empty((9, len(self)), np.float32) if name is None else scratch.buffer(name, (9, len(self)))
@@ -52,7 +52,7 @@ class Surface:
 
 
 def empty_surface(n: int, name: str | None = None) -> Surface:
-    """Room for n points: fresh arrays, or this thread's scratch buffers `name` (rt/scratch.py)."""
+    """Room for n points: fresh arrays, or this thread's scratch buffers `name` (rt/embree/scratch.py)."""
     if name is None:
         v, c = (lambda: np.empty((n, 3), np.float32)), (lambda: np.empty(n, np.float32))  # noqa: E731
     else:
@@ -195,7 +195,7 @@ class LightSet:
         self.emitters = (np.asarray(start, np.int64), rows,
                          f32(np.concatenate(keep) if keep else [], (-1,)),
                          np.concatenate(alias).astype(np.int32) if alias else np.zeros(0, np.int32))
-        # what picking a light needs, as structure-of-arrays (rt/raygen.py: _light_weights); point
+        # what picking a light needs, as structure-of-arrays (rt/embree/raygen.py: _light_weights); point
         # lights get a cone that is never cut (t = 1)
         spot = kind == 1
         col = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
@@ -207,7 +207,7 @@ class LightSet:
 
     def rays(self, k: int, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0, acc=raygen.NOT_TRACED) -> int:
         """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
-        (rt/raygen.py), or if scene traced and what gets through added to acc; returns their count."""
+        (rt/embree/raygen.py), or if scene traced and what gets through added to acc; returns their count."""
         eps, far = self.data.eps, self.data.far
         out = (origin, direction, tmax, e, idx, scene, acc)
         if k < self.count_analytic:

@@ -21,7 +21,7 @@ import numpy as np
 from llvmlite import binding as llvm
 from numba import njit, prange, types
 
-from app.errors import UserError
+from core.errors import UserError
 
 INVALID = np.uint32(0xFFFFFFFF)
 MISS_T = np.float32(1e30)  # t of a ray that hit nothing (rt.tracer.INF)
@@ -30,7 +30,6 @@ FORMAT_UINT3, FORMAT_FLOAT3 = 0x5003, 0x9003
 SCENE_FLAG_ROBUST = 1 << 2
 # RTCRayHit (at most 28 words with instance ids) on cache lines of its own: 32 words from a
 # 64-byte boundary, and room to find one, so that no two threads' ray buffers share a line
-# (a precaution: it measured the same as 16-byte alignment on the 2-core machine)
 RAYHIT_WORDS = 48
 
 
@@ -50,7 +49,15 @@ def library_path() -> str:
     return name
 
 
-def _load():
+_lib = None  # libembree4 through ctypes, once load() ran
+
+
+def load():
+    """Load libembree4 (once): for ctypes here and for the compiled kernels, which resolve
+    rtcOccluded1 / rtcIntersect1 by name when they are compiled or loaded from the cache."""
+    global _lib
+    if _lib is not None:
+        return _lib
     path = library_path()
     llvm.load_library_permanently(path)  # so that compiled kernels resolve rtc* by name
     lib = ctypes.CDLL(path)
@@ -66,10 +73,9 @@ def _load():
                             ("rtcReleaseGeometry", None, [P])):
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
+    _lib = lib
     return lib
 
-
-_lib = _load()
 
 # (scene, ray, arguments): pointers passed as integers, the same registers on x86-64 and arm64
 _occluded1 = types.ExternalFunction("rtcOccluded1", types.void(types.uintp, types.uintp, types.uintp))
@@ -83,6 +89,7 @@ class EmbreeScene:
     def __init__(self, positions: np.ndarray, indices: np.ndarray):
         positions = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
         indices = np.ascontiguousarray(indices, np.uint32).reshape(-1, 3)
+        load()
         self.device = _lib.rtcNewDevice(None)
         if not self.device:
             raise UserError("Embree could not create a device")

@@ -3,11 +3,7 @@
 The frame kernels allocate their per-block scratch (hundreds of kB an array) with malloc.
 glibc serves blocks that large with mmap, or from a thread's own heap that it shrinks again
 when they are freed, so the next block or frame touches fresh pages: each a page fault, and a
-page the OS zeroes. 2-core machine, 1280x720, 2 threads: GI on the arcade took ~7,400 faults a
-frame and reflections on the temple ~8,600; with malloc's thresholds pinned at 128 kB (its
-starting point) those passes took 59,000 and 37,000 faults and ran 32 % and 28 % slower than
-with the thresholds raised as here (2-3 faults a frame for those two). Page faults also serialise threads
-on the process's memory map lock, which matters more with 16 threads than with 2.
+page the OS zeroes, and page faults serialise threads on the process's memory map lock.
 
 Raising both thresholds (glibc's mallopt) keeps up to TRIM_THRESHOLD of freed memory in each
 arena for the next allocation. Elsewhere than glibc this does nothing."""

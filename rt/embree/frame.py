@@ -5,10 +5,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rt.gbuffer import CpuGBuffer
-from rt.sampling import PixelRng
-from rt.shading import SceneData
-from rt.tracer import Tracer
+from rt.embree.gbuffer import CpuGBuffer
+from rt.embree.sampling import PixelRng
+from rt.embree.shading import SceneData
+from rt.embree.tracer import Tracer
 
 
 def no_image(channels: int) -> np.ndarray:
@@ -40,8 +40,8 @@ class RtFrame:
 
     def background(self) -> np.ndarray:
         """(N,3) image holding the environment's radiance; passes fill in covered pixels."""
-        from rt.gather import env_args
-        from rt.kernels import background_fill
+        from rt.embree.gather import env_args
+        from rt.embree.kernels import background_fill
 
         out = self._buffer("background", 3)
         background_fill(out, self.gb.view_dir, self.gb.covered, *env_args(self.environment))
@@ -72,8 +72,7 @@ class RtFrame:
         what the same work, named by its qualified name, cost in the last frame).
         streams: the random streams the chunks draw from (ChunkFrame.rng). Their keys are made
         here for every pixel at once, so that a chunk starts tracing without first computing
-        them: on 16 threads each chunk's short GIL-holding steps queue behind the others', and
-        chunks started up to 7 ms apart in a 19 ms AO frame."""
+        them: on many threads each chunk's short GIL-holding steps queue behind the others'."""
         self.keys = {s: self._keys(s) for s in streams}
         self.tracer.map_chunks(len(self.gb.surface), lambda c, tracer: work(ChunkFrame(self, c, tracer)),
                                key=getattr(work, "__qualname__", None))
@@ -81,7 +80,7 @@ class RtFrame:
     def key_base(self, stream: int) -> np.uint64:
         """What the pixels' keys for a random stream hash their ids with (raygen.block_keys: the
         whole-frame kernels make each block's keys from it)."""
-        from rt.sampling import key_base
+        from rt.embree.sampling import key_base
 
         return key_base(self.seed, self.index, stream)
 
@@ -99,7 +98,7 @@ class RtFrame:
     def image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
         """An (N, channels) full-image array filled with `fill`, for chunks to write their pixels
         into; name: which of the frame's outputs it is (one buffer per name and size)."""
-        from rt.kernels import fill_rows
+        from rt.embree.kernels import fill_rows
 
         out = self._buffer(f"image{channels}{name}", channels)
         fill_rows(out, np.float32(fill))
@@ -116,7 +115,7 @@ class RtFrame:
 
     def full(self, values: np.ndarray, fill=0.0) -> np.ndarray:
         """Scatter per-covered-pixel values into a full image array."""
-        from rt.kernels import scatter_rows
+        from rt.embree.kernels import scatter_rows
 
         out = np.full((self.gb.n,) + values.shape[1:], fill, np.float32)
         v = np.ascontiguousarray(values, np.float32)
@@ -149,7 +148,7 @@ class ChunkFrame:
         """As RtFrame.rng, for this chunk's pixels: its part of the frame's keys when for_chunks
         made them for this stream, else keys made here in this thread's scratch buffer for the
         stream (valid until the thread's next chunk)."""
-        from rt import scratch
+        from rt.embree import scratch
 
         made = self.frame.keys.get(stream)
         if made is not None:  # made for the whole frame by for_chunks
@@ -160,7 +159,7 @@ class ChunkFrame:
     def put(self, image: np.ndarray, values: np.ndarray) -> None:
         """Write per-pixel values of this chunk into a full image from RtFrame.image() (nothing
         into an empty one: RtFrame.aux_image)."""
-        from rt.kernels import scatter_rows
+        from rt.embree.kernels import scatter_rows
 
         if image.shape[0] == 0:
             return

@@ -2,7 +2,7 @@
 and hit shading: the work between Embree calls. NumPy versions of the same maths would
 allocate a temporary per operation; these loop once per point and write into flat arrays.
 
-Conventions are those of rt/shading.py (which documents them); the kernels are its engine.
+Conventions are those of rt/embree/shading.py (which documents them); the kernels are its engine.
 """
 from __future__ import annotations
 
@@ -65,8 +65,8 @@ def take_next(typingctx, counter):
     return nbtypes.int64(counter), codegen
 
 
-AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (2-core machine:
-# 54-96 -> 31-52 ns a hit on three scenes' bounce hits; 4 and 16 ahead gained less)
+AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (incoherent hits
+# miss the cache on their mesh rows; 4 and 16 ahead gained less: report/HISTORY.md)
 
 
 @njit(cache=True, error_model="numpy")
@@ -252,7 +252,7 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
     word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions,
     linear depths and coverage, top row first. Positions come back from the pixel's ray and
     depth. Row by row (idx and row_start from covered_pixels): no division per pixel. G (9, M):
-    p, n and ng again as rows, what the ray generators read (rt/raygen.py: surface_soa)."""
+    p, n and ng again as rows, what the ray generators read (rt/embree/raygen.py: surface_soa)."""
     height, width = geometry.shape[0], geometry.shape[1]
     aspect = width / height
     for y in prange(height):
@@ -321,9 +321,8 @@ def scatter_rows(out, idx, values):
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def fill_rows(out, value):
-    """out[:] = value over numba's threads: a full image is 4-15 MB, and NumPy fills on one
-    thread, a step that would not shrink with the rest of a pass on 16 cores (2-core machine,
-    11 MB: NumPy 0.19 ms, this 0.14 ms on 1 thread and 0.10 on 2)."""
+    """out[:] = value over numba's threads: NumPy fills on one thread, a step that would not
+    shrink with the rest of a pass on many cores."""
     flat = out.reshape(out.size)
     for j in prange(flat.shape[0]):
         flat[j] = value
@@ -331,7 +330,7 @@ def fill_rows(out, value):
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def environment_terms(kind, color, horizon, zenith, ground):
-    """An environment (kinds as rt/gather.py: env_args) as the float32 terms environment_rgb
+    """An environment (kinds as rt/embree/gather.py: env_args) as the float32 terms environment_rgb
     takes: a constant colour, and the analytic sky's horizon, zenith and ground colours
     (scenes/model.py: sky_radiance) times its strength, zero where they do not apply."""
     f, zero = np.float32, np.float32(0.0)
@@ -359,10 +358,9 @@ def environment_rgb(y, terms):
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def background_fill(out, view_dir, covered, kind, color, horizon, zenith, ground):
-    """Uncovered pixels get the environment's radiance (kinds as rt/gather.py: env_args);
-    covered ones 0. Vectorises (2-core machine, 1280x720: 3.7 -> 1.4 ms on two threads with
-    the sky computed per channel in float64 before; it runs every frame of every ray-traced
-    pass)."""
+    """Uncovered pixels get the environment's radiance (kinds as rt/embree/gather.py: env_args);
+    covered ones 0. In float32, branch-free, so that it vectorises: it runs every frame of
+    every ray-traced pass."""
     terms = environment_terms(kind, color, horizon, zenith, ground)
     zero = np.float32(0.0)
     for p in prange(out.shape[0]):

@@ -1,0 +1,60 @@
+"""Each pass mode (`--pass NAME`) as a small graph declared as data: the passes it runs, in
+order, each with the options under which it runs. The renderer wires the channels from the
+passes' reads and writes; the viewer's panel shows the option groups of the graph's passes.
+Every mode ends in accumulation and display (TAIL)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from app.raster.channel_view import CHANNEL_VIEWS
+
+
+@dataclass(frozen=True)
+class Node:
+    pass_name: str  # a key of Renderer.passes
+    when: tuple = ()  # (option key, value) pairs that must all hold for the pass to run
+
+
+RASTER = (("gbuffer", "raster"),)
+RT_PRIMARY = (("gbuffer", "rt"),)
+# the front of a ray-traced mode: the raster G-buffer read back, or primary rays on the backend
+RT_FRONT = (Node("gbuffer", RASTER), Node("gbuffer_pack", RASTER), Node("primary"))
+FORWARD = (Node("shadow_maps"), Node("ssao"), Node("forward"))
+
+
+def _hybrid_input(effect: str) -> Node:
+    when = ((f"hybrid.{effect}", True),) + ((("hybrid.gi", False),) if effect == "ao" else ())
+    return Node(effect, when)
+
+
+MODES: dict[str, tuple[Node, ...]] = {
+    "forward": (Node("gbuffer"),) + FORWARD,
+    # the forward graph with ray-traced inputs (rt/hybrid.py): always on the raster G-buffer
+    "hybrid": (Node("gbuffer"), Node("gbuffer_pack"), Node("primary"))
+    + tuple(_hybrid_input(e) for e in ("shadows", "ao", "reflections", "gi")) + FORWARD,
+    **{effect: RT_FRONT + (Node(effect),) for effect in ("shadows", "reflections", "gi", "ao", "reference")},
+    **{view: (Node("gbuffer", RASTER), Node("channel_view", RASTER), Node("primary", RT_PRIMARY),
+              Node("gbuffer_view", RT_PRIMARY)) for view in CHANNEL_VIEWS},
+}
+TAIL = (Node("accumulation"), Node("display"))
+
+
+def active(mode: str, options) -> list[str]:
+    """The passes a mode runs under these options, in order, the tail included."""
+    return [n.pass_name for n in MODES[mode] + TAIL if all(options.get(k) == v for k, v in n.when)]
+
+
+def every_pass(mode: str) -> list[str]:
+    """Every pass a mode may run, whatever the options (the panel shows all their options)."""
+    return list(dict.fromkeys(n.pass_name for n in MODES[mode]))
+
+
+MODE_OPTIONS = {"hybrid": ("hybrid",)}  # a mode's own option groups, besides its passes'
+
+
+def option_groups(mode: str) -> list[str]:
+    """The option groups the panel shows for a mode: the mode's own, then its passes'."""
+    from app.passes import PASS_CLASSES
+    from app.passes import option_groups as groups_of
+
+    return list(dict.fromkeys(list(MODE_OPTIONS.get(mode, ())) + groups_of(PASS_CLASSES[p] for p in every_pass(mode))))

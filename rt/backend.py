@@ -1,0 +1,62 @@
+"""What a ray-tracing backend offers the passes: one interface, whatever the device.
+
+A backend builds the scene once (`set_scene`), takes a frame's inputs (`begin_frame`: the
+camera, the options, and the raster G-buffer when the pass graph feeds one, else it traces
+primary rays itself), traces one effect at a time into named images (`trace`), and hands an
+image to the host only when asked (`to_host`). Images stay on the backend's device between
+effects: a GPU backend keeps the whole frame there, Embree's images are numpy arrays.
+
+Images are (width x height, channels) float32 rows, row 0 the top-left pixel."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+EFFECTS = ("shadows", "reflections", "gi", "ao", "reference")
+
+# the image each effect makes besides radiance (rt/<effect>.py: the pass's writes)
+AUX_CHANNEL = {"shadows": "rt_direct", "reflections": "rt_reflection", "gi": "rt_indirect", "ao": "rt_ao"}
+
+
+@dataclass
+class FrameInputs:
+    camera: object  # app.camera.Camera (eye, basis(), fov, view and projection matrices)
+    prev_camera: object  # the last frame's camera (motion vectors)
+    width: int
+    height: int
+    environment: object  # scenes.model.Environment in effect
+    options: object  # core.options.Options
+    seed: int = 0
+    index: int = 0  # frames since the last reset: seeds this frame's random numbers
+    gbuffer: dict | None = None  # the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), or None
+
+
+class Backend:
+    """A ray tracer behind the passes. Subclasses: rt/embree/backend.py (more in rt/backends.py)."""
+
+    name = ""
+    rays_traced = 0  # rays traced since creation (the profiler's ray count reads the difference)
+
+    def set_scene(self, scene) -> None:
+        """Upload the scene and build its acceleration structure (once per scene)."""
+        raise NotImplementedError
+
+    def begin_frame(self, inputs: FrameInputs) -> None:
+        """Primary visibility for this frame: from inputs.gbuffer, or primary rays if None."""
+        raise NotImplementedError
+
+    def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
+        """Trace one effect (EFFECTS) of the current frame with its options; returns the asked
+        channels ("radiance" and/or the effect's AUX_CHANNEL) as device images."""
+        raise NotImplementedError
+
+    def gbuffer_view(self, channel: str) -> object:
+        """A G-buffer channel (albedo, normal, position, depth, roughness, emissive, motion) of
+        the current frame's primary hits, as a 3-channel device image."""
+        raise NotImplementedError
+
+    def to_host(self, image) -> object:
+        """A device image as a numpy (width x height, channels) float32 array."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the scene and the device's resources."""

@@ -1,0 +1,79 @@
+"""The Embree backend behind rt.backend.Backend: the scene's BVH and shading arrays, the CPU
+G-buffer of each frame, and one whole-frame kernel per effect (ao.py, shadows.py, gi.py,
+reflections.py, reference.py). Images are numpy arrays; to_host hands them on as they are."""
+from __future__ import annotations
+
+import numpy as np
+
+from rt.backend import AUX_CHANNEL, Backend, FrameInputs
+from rt.embree import ao, gi, reference, reflections, shadows
+from rt.embree.frame import RtFrame
+from rt.embree.gbuffer import from_raster, trace_primary
+from rt.embree.shading import SceneData
+from rt.embree.tracer import EmbreeTracer
+
+TRACE = {"shadows": shadows.trace, "reflections": reflections.trace, "gi": gi.trace, "ao": ao.trace,
+         "reference": reference.trace}
+
+
+class EmbreeBackend(Backend):
+    name = "embree"
+
+    def __init__(self, threads: int | None = None):
+        self.threads = threads
+        self.data: SceneData | None = None  # the scene in the kernels' flat arrays
+        self.tracer: EmbreeTracer | None = None  # the BVH and the threads that trace
+        self.frame: RtFrame | None = None  # the current frame (begin_frame)
+        self.inputs: FrameInputs | None = None
+        # full-image outputs kept from frame to frame: fresh arrays cost a page fault per page
+        self._buffers: dict = {}
+
+    @property
+    def rays_traced(self) -> int:
+        return self.tracer.rays_traced if self.tracer is not None else 0
+
+    def set_scene(self, scene) -> None:
+        self.close()
+        self.data = SceneData(scene)
+        self.tracer = EmbreeTracer(scene.positions, scene.indices, threads=self.threads)
+
+    def begin_frame(self, inputs: FrameInputs) -> None:
+        self.inputs = inputs
+        if inputs.gbuffer is not None:
+            gb = from_raster(inputs.gbuffer, inputs.camera, inputs.width, inputs.height, reuse=True)
+        else:
+            gb = trace_primary(self.data, self.tracer, inputs.camera, inputs.width, inputs.height, reuse=True)
+        self.frame = RtFrame(self.data, self.tracer, gb, inputs.environment, inputs.options, inputs.seed,
+                             inputs.index, self._buffers)
+
+    def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
+        rf = self.frame
+        rf.aux = AUX_CHANNEL.get(effect) in channels  # the effect's second image only when asked
+        result = TRACE[effect](rf)
+        return {c: result[c] for c in channels}
+
+    def gbuffer_view(self, channel: str) -> np.ndarray:
+        rf, inputs = self.frame, self.inputs
+        gb, s = rf.gb, rf.gb.surface
+        values = {"albedo": s.albedo, "normal": s.n, "position": s.p, "roughness": s.roughness[:, None],
+                  "emissive": s.emissive, "depth": gb.depth[gb.index][:, None]}
+        if channel == "motion":
+            aspect = inputs.width / max(inputs.height, 1)
+            prev = inputs.prev_camera
+            view_proj = prev.projection_matrix(aspect) @ prev.view_matrix()
+            clip = np.c_[s.p, np.ones(len(s))] @ view_proj.T
+            ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
+            px_prev = (ndc * 0.5 + 0.5) * [inputs.width, inputs.height]
+            y, x = np.divmod(gb.index, inputs.width)
+            px_now = np.stack([x + 0.5, inputs.height - (y + 0.5)], 1)
+            values["motion"] = np.c_[px_now - px_prev, np.zeros(len(s))]
+        v = values[channel]
+        return rf.full(np.broadcast_to(v, (len(s), 3)) if v.shape[1] == 1 else v)
+
+    def to_host(self, image) -> np.ndarray:
+        return image
+
+    def close(self) -> None:
+        if self.tracer is not None:
+            self.tracer.close()
+        self.tracer, self.data, self.frame = None, None, None
