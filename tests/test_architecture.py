@@ -1,0 +1,83 @@
+"""The layers import downward only, importing does no work, and pass modes are wired from
+their passes' reads and writes (docs/ARCHITECTURE.md)."""
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+LAYERS = {"core": 0, "scenes": 1, "rt": 2, "app": 3}  # a package may import its own layer and those below
+
+
+def imported_packages(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split(".")[0])
+    return names & set(LAYERS)
+
+
+def test_layers_import_downward_only():
+    upward = []
+    for package, level in LAYERS.items():
+        for path in (ROOT / package).rglob("*.py"):
+            for name in imported_packages(path):
+                if LAYERS[name] > level:
+                    upward.append(f"{path.relative_to(ROOT)} imports {name}")
+    assert upward == []
+
+
+def test_importing_does_no_process_setup():
+    """Importing every module of core, scenes and rt (the kernels aside) leaves the process as it
+    was: no allocator settings, no numba cache directory, no Embree loaded."""
+    code = """
+import os, sys
+import core.options, core.passes, scenes.loaders, rt.backend, rt.backends, rt.ao, rt.gi, rt.shadows
+import rt.reflections, rt.reference, rt.hybrid, rt.pass_base
+import app.passes, app.graph, app.renderer
+from rt.embree import rtcore
+assert "NUMBA_CACHE_DIR" not in os.environ and "OMP_WAIT_POLICY" not in os.environ, os.environ
+assert rtcore._lib is None
+print("clean")
+"""
+    env = {k: v for k, v in __import__("os").environ.items() if k not in ("NUMBA_CACHE_DIR", "OMP_WAIT_POLICY")}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
+    assert r.returncode == 0 and "clean" in r.stdout, r.stderr
+
+
+def test_hybrid_graph_asks_backends_for_its_inputs_only():
+    """Wired from reads and writes: in hybrid each ray-traced effect makes the image the forward
+    pass reads, not its radiance; a standalone effect makes radiance alone; with pass_outputs
+    every written channel."""
+    from app.graph import active
+    from app.options import Options
+    from app.passes import PASS_CLASSES
+    from app.renderer import wiring
+
+    opts = Options()
+    opts.apply(["hybrid.gi=true", "hybrid.reflections=true"])
+    names = active("hybrid", opts)
+    assert names == ["gbuffer", "gbuffer_pack", "primary", "shadows", "reflections", "gi", "shadow_maps", "ssao",
+                     "forward", "accumulation", "display"]  # AO is off while GI is on
+    wanted = wiring(PASS_CLASSES, names, every_output=False)
+    assert wanted["shadows"] == {"rt_direct"} and wanted["gi"] == {"rt_indirect"}
+    assert wanted["reflections"] == {"rt_reflection"} and wanted["primary"] == {"gbuffer"}
+    ao = active("ao", opts)
+    assert ao == ["gbuffer", "gbuffer_pack", "primary", "ao", "accumulation", "display"]
+    assert wiring(PASS_CLASSES, ao, every_output=False)["ao"] == {"radiance"}
+    assert wiring(PASS_CLASSES, ao, every_output=True)["ao"] == {"radiance", "rt_ao"}
+    opts.set("gbuffer", "rt")
+    assert active("ao", opts) == ["primary", "ao", "accumulation", "display"]
+    assert active("normal", opts) == ["primary", "gbuffer_view", "accumulation", "display"]
+
+
+def test_panel_shows_the_option_groups_of_the_modes_graph():
+    from app.graph import option_groups
+
+    assert option_groups("hybrid") == ["hybrid", "shadows", "ao", "reflections", "gi", "forward"]
+    assert option_groups("reference") == ["reference", "reflections"]
+    assert option_groups("gi") == ["gi"] and option_groups("forward") == ["forward"]
+    assert option_groups("albedo") == []
