@@ -4,9 +4,8 @@ For every pass, scene and size: the pass's CPU time, the rays it traced, and the
 Embree alone (rt/embree/rtcore.py, no sampling or shading) needs for the very same ray batches
 replayed in the same run with the same chunking and threads. efficiency = raw trace time /
 pass time, each the fastest of the frames timed (pass frames and replays alternate; the
-medians are kept too). The timed frames run as a user's do (AO, shadows, GI and reflections as
-whole-frame kernels that trace as they sample); the recorded frame runs the same passes
-through their chunked path, which makes the same rays. Also thread scaling (measure_scaling),
+medians are kept too). The timed frames run as a user's do; the recorded frame runs the same
+kernels with every ray they trace logged (record_frame). Also thread scaling (measure_scaling),
 G-buffer transfers, BVH build time and memory against triangle count, and raster vs RT
 G-buffers.
 """
@@ -47,6 +46,25 @@ def set_threads(renderer: Renderer, threads: int) -> None:
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
+def record_frame(renderer: Renderer, camera: Camera, size, pass_name: str) -> list:
+    """Render a frame with its rays logged (rt/embree/tracer.py: RayLog), for the replay: the
+    log is sized from the frame before, and the frame rendered again with a larger one if the
+    rays did not fit (a frame's random numbers, and so its ray count, vary a little)."""
+    from rt.embree.tracer import RayLog
+
+    tracer = renderer.ray_tracing().tracer
+    capacity = int(renderer.profiler.counters.get("rays", 0) * 1.25) + 4096
+    while True:
+        tracer.recording = log = RayLog(capacity)
+        try:
+            renderer.render(camera, *size, pass_name)
+        finally:
+            tracer.recording = None
+        if not log.overflowed:
+            return log.all_batches()
+        capacity = int(log.count[0] * 1.25) + 4096
+
+
 def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frames: int) -> dict:
     tracer = renderer.ray_tracing().tracer
     renderer.reset()
@@ -56,9 +74,7 @@ def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frame
     for _ in range(frames):
         renderer.render(camera, *size, pass_name)  # timed without recording: copies would bias it
         pass_ms.append(renderer.profiler.frame[pass_name])
-        tracer.recording = []
-        renderer.render(camera, *size, pass_name)  # the same work again, its rays kept for the replay
-        batches, tracer.recording = tracer.recording, None
+        batches = record_frame(renderer, camera, size, pass_name)  # the same work again, its rays kept
         raw_s.append(tracer.replay(batches))
         rays.append(sum(b[1].shape[0] for b in batches))
         for k in ("gbuffer", "gbuffer_readback", "gbuffer_unpack", "upload"):

@@ -1,7 +1,7 @@
 """The per-point light weights that one-light sampling picks by (rt/embree/raygen.py)."""
 import numpy as np
 
-from rt.embree import raygen
+from rt.embree import raygen, rtcore
 
 
 def reference_weights(P, N, guide):
@@ -134,7 +134,7 @@ def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probabilit
                         np.zeros((n, 3), np.float32))
     idx = np.zeros(n, np.int32)
     m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(1e-4), np.float32(far),
-                                     weights, o, dirs, tmax, e, idx, 0, raygen.NOT_TRACED)
+                                     weights, o, dirs, tmax, e, idx, rtcore.target(0), raygen.NOT_TRACED)
     ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters, guide, far)
     kept = [i for i, (k, direction, dist, light, _) in enumerate(ref) if direction @ N[i] > 0 and light.max() > 0]
     assert list(idx[:m]) == kept
@@ -178,7 +178,8 @@ def test_a_single_light_is_sampled_as_when_picked_among_others():
                             np.zeros((n, 3), np.float32))
         idx = np.zeros(n, np.int32)
         m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(1e-4),
-                                         np.float32(far), weights, o, dirs, tmax, e, idx, 0, raygen.NOT_TRACED)
+                                         np.float32(far), weights, o, dirs, tmax, e, idx, rtcore.target(0),
+                                         raygen.NOT_TRACED)
         with np.errstate(invalid="ignore"):  # 0 / 0 where the light has no weight: those carry nothing
             ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters,
                                       guide, far)

@@ -208,7 +208,7 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
     """Rays from columns g0.. of the G-buffer's rows are those from the chunk's own points, for
     every kind of light and for cosine rays (cafe: emissive clusters; temple: point lights;
     street: the sun)."""
-    from rt.embree import raygen, scratch
+    from rt.embree import raygen, rtcore, scratch
     from rt.embree.gbuffer import from_raster
     from rt.embree.sampling import PixelRng
 
@@ -225,8 +225,10 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
         for x, y in zip(a, b, strict=True):
             assert np.array_equal(x[:m], y[:m])
     a, b = scratch.rays("t.a", hi - lo), scratch.rays("t.b", hi - lo)
-    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, data.eps, np.float32(1.0), *a, 0, raygen.NOT_TRACED)
-    assert m == raygen.hemisphere_live(*own, keys, 0, data.eps, np.float32(1.0), *b, 0, raygen.NOT_TRACED) and m > 500
+    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, data.eps, np.float32(1.0), *a, rtcore.target(0),
+                               raygen.NOT_TRACED)
+    assert m == raygen.hemisphere_live(*own, keys, 0, data.eps, np.float32(1.0), *b, rtcore.target(0),
+                                       raygen.NOT_TRACED) and m > 500
     for x, y in zip(a, b, strict=True):
         assert np.array_equal(x[:m], y[:m])
     r.release()
@@ -259,7 +261,7 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     """Given a scene handle, generators trace their rays as they make them and add what gets
     through: the same sums (to the bit) and ray counts as packing, tracing and adding after,
     for every kind of light, the one-light choice and AO rays."""
-    from rt.embree import raygen, scratch
+    from rt.embree import raygen, rtcore, scratch
     from rt.embree.gbuffer import from_raster
     from rt.embree.sampling import PixelRng
 
@@ -279,14 +281,14 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
         if light:
             raygen.add_unblocked(out, idx, e, blocked, m)
         else:
-            raygen.add_open(out[:, 0], idx, blocked, m)
+            np.add.at(out[:, 0], idx[:m][~blocked], 1.0)
         return out
 
     cases = [(lambda sc, acc, k=k: data.lights.rays(k, G, keys, 0, o, d, t, e, idx, sc, acc), True)
              for k in range(data.lights.count)]
     cases.append((lambda sc, acc: data.lights.one_rays(G, keys, 0, o, d, t, e, idx, sc, acc), True))
-    cases.append((lambda sc, acc: raygen.hemisphere_live(*G, keys, 0, data.eps, np.float32(0.7), o, d, t, idx, sc,
-                                                         acc), False))
+    cases.append((lambda sc, acc: raygen.hemisphere_live(*G, keys, 0, data.eps, np.float32(0.7), o, d, t, idx,
+                                                         rtcore.target(sc), acc), False))
     for make, light in cases:
         m = make(0, raygen.NOT_TRACED)
         expected = after(m, light)
@@ -304,81 +306,108 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
                                        ("street", ("reflections.lit=false", "reflections.roughness_threshold=0.6",
                                                    "reflections.max_depth=3")),
                                        ("temple", ("reflections.max_depth=4", "reflections.roughness_threshold=0.5"))])
-def test_whole_frame_kernels_render_what_chunks_render(gl, name, sets, monkeypatch):
-    """AO, shadows, GI and reflections as one compiled parallel call per frame (Tracer.frame_scene) give the
-    chunked path's images and count the same rays, on 1 and 3 threads. Equal to the float32
-    rounding of vectorised loops: points at a block's edge may take the scalar remainder of a
-    vectorised loop in one path and the vector body in the other (GI's light weights: 1 ulp)."""
+def test_whole_frame_kernels_render_the_same_on_any_thread_count(gl, name, sets, monkeypatch):
+    """AO, shadows, GI and reflections (one compiled parallel call per frame each) give the same
+    images, their other outputs too, and count the same rays on 1 and 3 threads, whose blocks
+    of points differ (raygen.block_bounds). Equal to the float32 rounding of vectorised loops:
+    a point at a block's edge may take the scalar remainder of a vectorised loop with one block
+    size and the vector body with another (GI's light weights: 1 ulp)."""
     from app.passes import PASS_CLASSES
     from rt.embree.backend import EmbreeBackend
-    from rt.embree.tracer import EmbreeTracer
 
     scene = build_builtin(name)
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
-    frame_scene, trace = EmbreeTracer.frame_scene, EmbreeBackend.trace
-    for threads in (1, 3):
-        for pass_name in ("ao", "shadows", "gi", "reflections"):
-            got = []
-            for whole in (True, False):
-                monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
-                r = make(gl, scene, sets)
-                r.pass_outputs = True
-                tracer = r.ray_tracing().tracer
-                tracer.set_threads(threads)
-                rt_pass, outputs = PASS_CLASSES[pass_name], {}
+    trace = EmbreeBackend.trace
+    for pass_name in ("ao", "shadows", "gi", "reflections"):
+        got = []
+        for threads in (1, 3):
+            r = make(gl, scene, sets)
+            r.pass_outputs = True
+            tracer = r.ray_tracing().tracer
+            tracer.set_threads(threads)
+            outputs = {}
 
-                def keep(self, effect, channels=("radiance",), outputs=outputs):
-                    result = trace(self, effect, channels)
-                    outputs.update((k, v.copy()) for k, v in result.items())
-                    return result
+            def keep(self, effect, channels=("radiance",), outputs=outputs):
+                result = trace(self, effect, channels)
+                outputs.update((k, v.copy()) for k, v in result.items())
+                return result
 
-                monkeypatch.setattr(EmbreeBackend, "trace", keep)
-                for _ in range(2):  # a second frame: other random numbers, the same buffers reused
-                    r.render(cam, 80, 45, pass_name)
-                got.append((r.read_linear(), tracer.rays_traced, outputs))
-                r.release()
-            (a, rays_a, out_a), (b, rays_b, out_b) = got
-            assert np.allclose(a, b, rtol=1e-5, atol=1e-7) and rays_a == rays_b > 0 and a.std() > 0.01
-            assert out_a.keys() == out_b.keys() == set(rt_pass.writes)
-            for k in out_a:  # the passes' other outputs too (what hybrid views swap in)
-                assert np.allclose(out_a[k], out_b[k], rtol=1e-5, atol=1e-7), k
-    monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
+            monkeypatch.setattr(EmbreeBackend, "trace", keep)
+            for _ in range(2):  # a second frame: other random numbers, the same buffers reused
+                r.render(cam, 80, 45, pass_name)
+            got.append((r.read_linear(), tracer.rays_traced, outputs))
+            r.release()
+        (a, rays_a, out_a), (b, rays_b, out_b) = got
+        assert np.allclose(a, b, rtol=1e-5, atol=1e-7) and rays_a == rays_b > 0 and a.std() > 0.01, pass_name
+        assert out_a.keys() == out_b.keys() == set(PASS_CLASSES[pass_name].writes)
+        for k in out_a:  # the passes' other outputs too (what hybrid's forward pass reads)
+            assert np.allclose(out_a[k], out_b[k], rtol=1e-5, atol=1e-7), k
     monkeypatch.setattr(EmbreeBackend, "trace", trace)
 
 
 def test_passes_make_radiance_only_unless_asked(gl, monkeypatch):
-    """By default (Renderer.pass_outputs False) a pass returns radiance alone, in the whole-frame
-    kernels and the chunked path, and the image is the very same as when its other outputs
-    (rt_direct, rt_ao, ...) are made too."""
+    """By default (Renderer.pass_outputs False) a pass returns radiance alone, and the image is
+    the very same as when its other outputs (rt_direct, rt_ao, ...) are made too."""
     from app.passes import PASS_CLASSES
     from rt.embree.backend import EmbreeBackend
-    from rt.embree.tracer import EmbreeTracer
 
     scene = build_builtin("cafe")
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
-    frame_scene, trace = EmbreeTracer.frame_scene, EmbreeBackend.trace
-    for whole in (True, False):
-        monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene if whole else (lambda self: 0))
-        for pass_name in ("ao", "shadows", "gi", "reflections"):
-            images = []
-            for wanted in (False, True):
-                r = make(gl, scene)
-                r.pass_outputs = wanted
-                rt_pass, keys = PASS_CLASSES[pass_name], []
+    trace = EmbreeBackend.trace
+    for pass_name in ("ao", "shadows", "gi", "reflections"):
+        images = []
+        for wanted in (False, True):
+            r = make(gl, scene)
+            r.pass_outputs = wanted
+            keys = []
 
-                def keep(self, effect, channels=("radiance",), keys=keys):
-                    result = trace(self, effect, channels)
-                    keys.append(set(result))
-                    return result
+            def keep(self, effect, channels=("radiance",), keys=keys):
+                result = trace(self, effect, channels)
+                keys.append(set(result))
+                return result
 
-                monkeypatch.setattr(EmbreeBackend, "trace", keep)
-                r.render(cam, 80, 45, pass_name)
-                images.append(r.read_linear())
-                assert keys == [set(rt_pass.writes) if wanted else {"radiance"}], (pass_name, whole)
-                r.release()
-            assert np.array_equal(images[0], images[1]) and images[0].std() > 0.01, (pass_name, whole)
-    monkeypatch.setattr(EmbreeTracer, "frame_scene", frame_scene)
+            monkeypatch.setattr(EmbreeBackend, "trace", keep)
+            r.render(cam, 80, 45, pass_name)
+            images.append(r.read_linear())
+            assert keys == [set(PASS_CLASSES[pass_name].writes) if wanted else {"radiance"}], pass_name
+            r.release()
+        assert np.array_equal(images[0], images[1]) and images[0].std() > 0.01, pass_name
     monkeypatch.setattr(EmbreeBackend, "trace", trace)
+
+
+@pytest.mark.parametrize("pass_name,sets", [
+    ("ao", ("ao.rays_per_pixel=2",)), ("shadows", ()), ("shadows", ("shadows.lights=one",)), ("gi", ("gi.bounces=2",)),
+    ("gi", ("gi.shadows=false",)), ("reflections", ("reflections.max_depth=2",)),
+    ("reference", ("reference.max_bounces=2",))])
+def test_recorded_frame_logs_every_ray_it_traces(gl, pass_name, sets):
+    """bench --perf's recorded frame (app/perf.py: record_frame) logs exactly the rays the pass
+    traced, each kind replayable, and logging changes nothing in the image; a log too small to
+    hold them is noticed and the frame recorded again."""
+    from app.perf import record_frame
+    from rt.embree.tracer import RayLog
+
+    scene = build_builtin("temple")
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    images = []
+    for recorded in (False, True):
+        r = make(gl, scene, sets + ("accumulate=false",))  # every frame draws the same numbers
+        tracer = r.ray_tracing().tracer
+        r.render(cam, 64, 36, pass_name)  # the frame before: sizes the log
+        if recorded:
+            r.profiler.counters["rays"] = 10  # far too small: the log must grow and the frame run again
+            batches = record_frame(r, cam, (64, 36), pass_name)
+            logged = sum(b[1].shape[0] for b in batches)
+            assert logged > 0 and logged == r.profiler.counters["rays"]  # the rays of the frame logged
+            assert {b[0] for b in batches} <= {"occluded", "intersect"}
+            assert all(np.isfinite(b[1]).all() and (b[3] > 0).all() for b in batches)
+            assert tracer.replay(batches) > 0
+        else:
+            r.render(cam, 64, 36, pass_name)
+        images.append(r.read_linear())
+        r.release()
+    assert np.array_equal(images[0], images[1])
+    log = RayLog(4)
+    assert not log.overflowed and len(log) == 0
 
 
 @pytest.mark.parametrize("env", ["sky", "0.1,0.2,0.3", "black"])

@@ -1,9 +1,6 @@
-"""Serial, GIL-free kernels that consume traced rays inside a chunk worker: split hits from
-misses, gather what the hits need, and write a chunk's pixels into the frame's images.
-
-Between Embree calls a chunk otherwise runs NumPy glue (masks, fancy indexing, temporaries)
-that holds the GIL; with many tracing threads that glue serialises and caps the speed-up.
-"""
+"""Serial, GIL-free kernels that consume traced rays inside a whole-frame kernel's block of
+points: split hits from misses, gather what the hits need, and write the block's pixels into
+the frame's images (and the uncovered pixels around them)."""
 from __future__ import annotations
 
 import numpy as np

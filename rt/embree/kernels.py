@@ -65,6 +65,24 @@ def take_next(typingctx, counter):
     return nbtypes.int64(counter), codegen
 
 
+@intrinsic
+def take_many(typingctx, counter, n):
+    """counter[0] += n atomically, returning the value before: a run of n slots of a shared
+    array for the calling thread alone (LLVM atomicrmw)."""
+    if not isinstance(counter, nbtypes.Array) or counter.dtype != nbtypes.int64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        ary = context.make_array(aty)(context, builder, args[0])
+        zero = context.get_constant(nbtypes.intp, 0)
+        ptr = cgutils.get_item_pointer(context, builder, aty, ary, [zero] * aty.ndim, wraparound=False)
+        count = context.cast(builder, args[1], signature.args[1], nbtypes.int64)
+        return builder.atomic_rmw("add", ptr, count, "monotonic")
+
+    return nbtypes.int64(counter, n), codegen
+
+
 AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (incoherent hits
 # miss the cache on their mesh rows; 4 and 16 ahead gained less: report/HISTORY.md)
 

@@ -11,12 +11,13 @@ they carry come out packed in front of the buffers, with `idx[j]` the point ray 
 and the count is returned. The packed buffers go to Embree as they are. Serial and GIL-free:
 one call per chunk per thread.
 
-Occlusion rays may instead be traced where they are made: given an Embree scene handle (not
-0), a generator traces each ray of a step as the pack loop would have written it and adds
-what gets through to `acc` (light: acc[i] += the light carried; AO: acc[i, 0] += 1), so that
-a chunk's sampling, tracing and gathering are one call without the GIL, and no ray is
-written out (rtcore.py; `Tracer.inline_scene` says when a tracer allows it, else the
-caller traces the packed rays). The rays, and so the images, are the same either way.
+Occlusion rays may instead be traced where they are made: given a tracing target `tr` with a
+scene (rtcore.target: tr[0] not 0), a generator traces each ray of a step as the pack loop
+would have written it and adds what gets through to `acc` (light: acc[i] += the light
+carried; AO: acc[i, 0] += 1), so that sampling, tracing and gathering are one call without
+the GIL, and no ray is written out (the whole-frame kernels; the reference path tracer's
+chunks when `Tracer.inline_scene` allows it, else the caller traces the packed rays). The
+rays, and so the images, are the same either way.
 
 sin/cos come from a short polynomial (`sin_turns`), which vectorises where libm's does not and
 is accurate to 4e-7, far below the sampling noise.
@@ -60,7 +61,7 @@ def offset(eps, px, py, pz):
     return eps * (ONE + max(abs(px), abs(py), abs(pz)) * F(1e-3))
 
 
-NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (0)
+NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (tr[0] 0)
 FRAME_BLOCK = 2048, 32768  # fewest and most points per work item of the whole-frame kernels (block_size)
 BLOCKS_PER_WORKER = 8
 TAIL_SHARE = 2  # block_bounds: the last blocks take at most 1 / (TAIL_SHARE x workers) of what is left
@@ -111,24 +112,28 @@ def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, id
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, scene, buf, words, b, acc, light):
+def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, light):
     """_pack's rays, traced one by one instead of written out; acc[point] gains what each ray
     that gets through carries (see _pack and the module notes). Returns how many were traced."""
     m = 0
+    at = embree.log_reserve(tr, nb)  # the step's slots in tr's ray log (-1: not logging)
     for j in range(nb):
+        slot = at + j if at >= 0 else at
         if light:
             ex, ey, ez = blk[4, j], blk[5, j], blk[6, j]
             if not max(ex, ey, ez) > ZERO:
+                embree.log_put(tr, slot, -ONE, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO)
                 continue
         elif not blk[4, j] > ZERO:
+            embree.log_put(tr, slot, -ONE, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO)
             continue
         i = b0 + j
         px, py, pz = G[0, g0 + i], G[1, g0 + i], G[2, g0 + i]
         s = offset(eps, px, py, pz)
         t = max(blk[3, j] - TWO * s, s) if light else tmax_value
         m += 1
-        if embree.occluded1(scene, buf, words, b, px + G[6, g0 + i] * s, py + G[7, g0 + i] * s, pz + G[8, g0 + i] * s,
-                            blk[0, j], blk[1, j], blk[2, j], t):
+        if embree.trace_occluded(tr, slot, buf, words, b, px + G[6, g0 + i] * s, py + G[7, g0 + i] * s,
+                                 pz + G[8, g0 + i] * s, blk[0, j], blk[1, j], blk[2, j], t):
             continue
         if light:
             acc[i, 0] += ex
@@ -162,9 +167,10 @@ def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, idx, scene, acc):
+def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, idx, tr, acc):
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
-    those above the true surface (or, if scene, traces them and counts in acc those that escape). Returns the count."""
+    those above the true surface (or, if tr has a scene, traces them and counts in acc those
+    that escape). Returns the count."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     buf, b = embree.ray_buffer()
@@ -175,8 +181,8 @@ def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, 
         c0, c1 = g0 + b0, g0 + b1  # columns of G
         _hemisphere_step(G[3, c0:c1], G[4, c0:c1], G[5, c0:c1], G[6, c0:c1], G[7, c0:c1], G[8, c0:c1],
                          keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
-        if scene:
-            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, tmax_value, scene, buf, words, b, acc, False)
+        if tr[0]:
+            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, tmax_value, tr, buf, words, b, acc, False)
         else:
             m = _pack(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
     return m
@@ -239,9 +245,9 @@ def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, f
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx, scene, acc):
+def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx, tr, acc):
     """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed
-    (or traced into acc if scene); returns the count."""
+    (or traced into acc if tr has a scene); returns the count."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     buf, b = embree.ray_buffer()
@@ -253,8 +259,8 @@ def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direct
         _analytic_step(k, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
                        G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, analytic, far,
                        blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        if scene:
-            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, far, scene, buf, words, b, acc, True)
+        if tr[0]:
+            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, far, tr, buf, words, b, acc, True)
         else:
             m = _pack(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
@@ -295,10 +301,10 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx, scene,
+def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx, tr,
                         acc):
     """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G,
-    packed (or traced into acc if scene)."""
+    packed (or traced into acc if tr has a scene)."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     U, S = np.empty((3, RUN), np.float32), np.empty((LIGHT_ROW, RUN), np.float32)
@@ -311,8 +317,8 @@ def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin
         _cluster_step(lo, hi, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
                       G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, rows, keep, alias,
                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], U, S, b1 - b0)
-        if scene:
-            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, ZERO, scene, buf, words, b, acc, True)
+        if tr[0]:
+            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, ZERO, tr, buf, words, b, acc, True)
         else:
             m = _pack(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
     return m
@@ -500,10 +506,10 @@ def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, e
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
-                          e, idx, scene, acc):
+                          e, idx, tr, acc):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
-    lights); packed (or traced into acc if scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch.
+    lights); packed (or traced into acc if tr has a scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch.
     Each step is a loop over the block's points: weights, draws, the pick, the picked light's
     row gathered, then the rays (branch-free: it vectorises)."""
     table = analytic_rows(analytic)
@@ -546,8 +552,8 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
                         pick[i] += ONE if w[k, i] <= target[i] else ZERO
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
             _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
-        if scene:
-            m += _trace_add(G, g0, b0, nb, blk, eps, far, scene, buf, words, rb, acc, True)
+        if tr[0]:
+            m += _trace_add(G, g0, b0, nb, blk, eps, far, tr, buf, words, rb, acc, True)
         else:
             m = _pack(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
     return m
@@ -562,13 +568,6 @@ def add_unblocked(total, idx, e, blocked, m):
             total[i, 0] += e[j, 0]
             total[i, 1] += e[j, 1]
             total[i, 2] += e[j, 2]
-
-
-@njit(cache=True, error_model="numpy", nogil=True)
-def add_open(count, idx, blocked, m):
-    for j in range(m):
-        if not blocked[j]:
-            count[idx[j]] += ONE
 
 
 @njit(cache=True, error_model="numpy")
@@ -628,51 +627,52 @@ def block_keys(pix, b0, b1, base):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def no_rays():
-    """Empty ray buffers, for generators that trace what they make (scene given) and so never
+    """Empty ray buffers, for generators that trace what they make (tr has a scene) and so never
     write rays out: (origin, direction, tmax, light, index)."""
     return (np.empty((0, 3), np.float32), np.empty((0, 3), np.float32), np.empty(0, np.float32),
             np.empty((0, 3), np.float32), np.empty(0, np.int32))
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def direct_block(G, b0, keys, lights, one, dim0, eps, far, scene, total):
+def direct_block(G, b0, keys, lights, one, dim0, eps, far, tr, total):
     """Irradiance x cos from every light (one shadow ray each, dimensions dim0 + 3k) or from one
     chosen light (one: dimensions dim0..dim0+3) at points b0.. of G (keys: theirs), traced here
     and added into total (zeroed first); returns the rays traced. lights: LightSet.kernel_args.
-    scene 0: unshadowed (the study's cheap GI): every ray's light is added, none is traced."""
+    tr without a scene (rtcore.no_trace): unshadowed (the study's cheap GI), every ray's light
+    added, none traced."""
     n_lights = lights[3]
     total[:] = ZERO
     if n_lights == 0:
         return 0
     o, d, t, e, idx = no_rays()
-    if scene == 0:  # the rays packed, light by light, and all of them added (as shading._gather)
+    if tr[0] == 0:  # the rays packed, light by light, and all of them added (as shading._gather)
         n = keys.shape[0]
         o, d, t, e, idx = (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
                            np.empty((n, 3), np.float32), np.empty(n, np.int32))
         for k in range(1 if one else n_lights):
-            m = _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, 0, total)
+            m = _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total)
             add_unblocked(total, idx, e, np.zeros(m, np.bool_), m)
         return 0
     traced = 0
     for k in range(1 if one else n_lights):
-        traced += _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, scene, total)
+        traced += _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total)
     return traced
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, scene, total):
+def _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total):
     """direct_block's rays: to one chosen light (one), else to light k (dimensions dim0 + 3k),
-    packed into o, d, t, e, idx or traced into total (scene); returns their count."""
+    packed into o, d, t, e, idx or traced into total (tr has a scene); returns their count."""
     analytic, emitters, guide, n_lights = lights
     if one:
         weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
         return one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, eps, far, weights, o, d, t, e, idx,
-                                     scene, total)
+                                     tr, total)
     start, rows, keep, alias = emitters
     count_analytic = analytic[0].shape[0]
     dim = dim0 + 3 * k
     if k < count_analytic:
-        return analytic_shadow_rays(k, G, b0, keys, dim, analytic, eps, far, o, d, t, e, idx, scene, total)
+        return analytic_shadow_rays(k, G, b0, keys, dim, analytic, eps, far, o, d, t, e, idx, tr, total)
     j = k - count_analytic
     return cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, eps, o, d, t, e, idx,
-                               scene, total)
+                               tr, total)

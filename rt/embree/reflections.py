@@ -6,74 +6,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from rt.embree import gather, raygen, scratch
+from rt.embree import gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.kernels import shade_hits
-from rt.embree.shading import INV_PI, direct_one, empty_surface
+from rt.embree.shading import INV_PI
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
-
-
-def reflected_radiance(cf, s, sel, view, rng, depth: int, level: int = 0) -> np.ndarray:
-    """Radiance arriving along the mirror directions at the points sel of s (viewed along
-    `view`, one row per point of sel), following up to `depth` mirrors; a scratch buffer of
-    this level. Every step runs even on no points, so each pixel draws the same numbers
-    however the frame is chunked."""
-    thr = cf.options.get("reflections.roughness_threshold")
-    lit = cf.options.get("reflections.lit")
-    m, name = sel.shape[0], f"refl{level}"
-    out = scratch.buffer(name + ".out", (m, 3))
-    out.fill(0)
-    o, d, _, owner = scratch.rays(name, m)
-    gather.mirror_rays(s.p, s.n, s.ng, view, sel, cf.data.eps, o, d)
-    hits = cf.tracer.intersect(o[:m], d[:m])
-    owner[:m] = np.arange(m)
-    hit = scratch.buffer(name + ".hit", (m,), np.int64)
-    k = gather.split_hits(hits.prim, m, d, owner, out, *gather.env_args(cf.environment), hit)
-    hit = hit[:k]
-    sh = cf.data.surface(hits, d, o, sel=hit, out=empty_surface(k, name + ".surface"))
-    keys = scratch.buffer(name + ".keys", (k,), np.uint64)
-    gather.gather_keys(rng.key, owner, hit, k, keys)  # rng: one generator per point of sel
-    hrng = rng.with_keys(keys)
-    direct = scratch.buffer(name + ".direct", (k, 3))
-    if lit:
-        direct_one(cf.data, cf.tracer, sh, hrng, out=direct)
-    colour = scratch.buffer(name + ".colour", (k, 3))
-    colour.fill(0)
-    gather.add_hit_colour(colour, np.arange(k), k, sh.emissive, sh.albedo, direct, lit)
-    if depth > 1:
-        smooth = np.flatnonzero(sh.roughness < thr)
-        inner = reflected_radiance(cf, sh, smooth, d[hit][smooth], hrng.subset(smooth), depth - 1, level + 1)
-        gather.blend_mirror(colour, smooth, sh.emissive, sh.albedo, sh.metallic, sh.n, d[hit][smooth], inner, None)
-    out[hit] = colour
-    return out
-
-
-def reflect(cf, reflection: np.ndarray | None = None) -> np.ndarray:
-    """A chunk's colour with reflections blended in (without emission); the reflection itself
-    goes into `reflection` as RGBA (alpha 1 where a reflection ray was traced), one row a point."""
-    s = cf.s
-    rng = cf.rng(3)
-    local = scratch.buffer("refl.local", (len(s), 3))
-    if cf.options.get("reflections.lit"):
-        direct_one(cf.data, cf.tracer, s, rng, out=local)
-        local *= s.albedo * INV_PI
-    else:
-        local[:] = s.albedo
-    smooth = np.flatnonzero(s.roughness < cf.options.get("reflections.roughness_threshold"))
-    view = cf.view[smooth]
-    refl = reflected_radiance(cf, s, smooth, view, rng.subset(smooth), cf.options.get("reflections.max_depth"))
-    zero = scratch.buffer("refl.zero", (len(s), 3))
-    zero.fill(0)
-    gather.blend_mirror(local, smooth, zero, s.albedo, s.metallic, s.n, view, refl, reflection)
-    return local
-
-
 @njit(cache=True, error_model="numpy", nogil=True)
-def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, scene, env, mesh, refl):
-    """One mirror bounce, as a level of reflected_radiance: from the points sel[k] of (P, N, NG)
+def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, tr, env, mesh, refl):
+    """One mirror bounce: from the points sel[k] of (P, N, NG)
     seen along V[k] (keys[k]: their generators), ray k's closest hit shaded (lit: with its own
     light sample, dimensions dim0..dim0+3) and its colour; refl[k] gains the environment where
     ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
@@ -84,7 +27,7 @@ def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, scene, env, me
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
     gather.mirror_rays(P, N, NG, V, sel, eps, o, d)
     th, prim, u, v = np.empty(m, np.float32), np.empty(m, np.int32), np.empty(m, np.float32), np.empty(m, np.float32)
-    embree.intersect(scene, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
+    embree.trace_intersect(tr, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
     owner, hit = np.arange(m), np.empty(m, np.int64)
     k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, hit)
     hits = hit[:k]
@@ -101,19 +44,19 @@ def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, scene, env, me
     if lit:
         hg = np.empty((9, k), np.float32)
         raygen.surface_soa(HP, HN, HNG, hg)
-        traced += raygen.direct_block(hg, 0, hkeys, ls, True, dim0, eps, far, scene, hdirect)
+        traced += raygen.direct_block(hg, 0, hkeys, ls, True, dim0, eps, far, tr, hdirect)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
     return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _deeper(depth, thr, lit, ls, eps, far, scene, env, mesh, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys,
+def _deeper(depth, thr, lit, ls, eps, far, tr, env, mesh, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys,
             colour):
     """Mirrors 2..depth below the first mirror's hits (their shading, keys and colour; d: the
     first mirror rays' directions): each level's smooth hits reflect again (_mirror_hits, light
     dimensions 4 x level), then, deepest first, each level's colour takes Fresnel's blend with
-    the reflections below it, as reflected_radiance nests them; colour gains the second
+    the reflections below it; colour gains the second
     mirror's. Returns the rays traced."""
     levels = depth - 1
     cap = hits.shape[0]  # no level has more points than the first has hits
@@ -138,7 +81,7 @@ def _deeper(depth, thr, lit, ls, eps, far, scene, env, mesh, HP, HN, HNG, halb, 
         for j in range(m):
             skeys[j] = pkeys[sel[lv, j]]
         h, dd, P2, N2, NG2, alb2, rough2, metal2, emis2, col2, keys2, t = _mirror_hits(
-            pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ls, eps, far, scene, env, mesh, refl[lv])
+            pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ls, eps, far, tr, env, mesh, refl[lv])
         traced += t
         k = h.shape[0]
         hit_count[lv] = k
@@ -163,16 +106,16 @@ def _deeper(depth, thr, lit, ls, eps, far, scene, env, mesh, HP, HN, HNG, halb, 
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene, env, mesh, pix, surface, view_dir,
+def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, tr, env, mesh, pix, surface, view_dir,
                       out, reflection_image):
     """The whole reflections pass in one call: blocks of points split among workers
-    (raygen.next_block), each doing what a chunk does (the same numbers, in the same order):
-    the local colour (lit: one chosen light, shadowed), a mirror ray from each point smoother
-    than thr, its closest hit shaded (lit: with its own light sample), up to `depth` mirrors
-    deep (_deeper), Fresnel's blend and the pixels written, with the uncovered ones around them
-    (gather.fill_uncovered).
+    (raygen.next_block), each taking, per point: the local colour (lit: one chosen light,
+    shadowed), a mirror ray from each point smoother than thr, its closest hit shaded (lit:
+    with its own light sample), up to `depth` mirrors deep (_deeper), Fresnel's blend and the
+    pixels written, with the uncovered ones around them (gather.fill_uncovered).
     Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits
-    with; surface: the G-buffer's (p, n, ng, albedo, roughness, metallic, emissive)."""
+    with; surface: the G-buffer's (p, n, ng, albedo, roughness, metallic, emissive); tr: the
+    tracing target (rtcore.target)."""
     n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
@@ -182,12 +125,14 @@ def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene
     env_kind, env_color, horizon, zenith, ground = env
     corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
     P, N, NG, albedo, rough, metal, emissive = surface
+    handle, log, logged = tr
     bounds = raygen.block_bounds(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
+        trw = (handle, log, logged)
         while True:
             b0, b1 = raygen.next_block(counter, bounds)
             if b0 >= n:
@@ -196,7 +141,7 @@ def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene
             kb = raygen.block_keys(pix, b0, b1, base)
             local = np.empty((nb, 3), np.float32)
             if lit:
-                traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, scene, local)
+                traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, trw, local)
                 for j in range(nb):
                     for a in range(3):
                         local[j, a] *= albedo[b0 + j, a] * INV_PI
@@ -218,10 +163,10 @@ def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene
                      tex_data)
             refl = np.zeros((m, 3), np.float32)
             hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-                P, N, NG, V, smooth[:m], skeys, 4, lit, ls, eps, far, scene, envt, mesht, refl)
+                P, N, NG, V, smooth[:m], skeys, 4, lit, ls, eps, far, trw, envt, mesht, refl)
             traced[w] += t
             if depth > 1:
-                traced[w] += _deeper(depth, thr, lit, ls, eps, far, scene, envt, mesht, HP, HN, HNG, halb, hrough,
+                traced[w] += _deeper(depth, thr, lit, ls, eps, far, trw, envt, mesht, HP, HN, HNG, halb, hrough,
                                      hmetal, hemis, d, hits, hkeys, colour)
             for i in range(hits.shape[0]):
                 for a in range(3):
@@ -242,28 +187,15 @@ def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, scene
 
 
 def trace(rf) -> dict:
-    scene = rf.tracer.frame_scene()
-    if scene and rf.gb.soa is not None:
-        out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
-        s, data = rf.gb.surface, rf.data  # one compiled call: no Python per chunk
-        rf.tracer.rays_traced += rf.tracer.run_parallel(
-            reflections_frame, rf.gb.soa, rf.key_base(3),
-            np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-            rf.options.get("reflections.max_depth"), data.lights.kernel_args, data.eps, data.far, scene,
-            gather.env_args(rf.environment), data.mesh_args,
-            rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
-            reflection_image)
-        return rf.outputs(out, rt_reflection=reflection_image)
-
-    out, reflection_image = rf.background(), rf.aux_image(4, name="rt_reflection")
-
-    def work(cf):
-        reflection = scratch.buffer("refl.rgba", (len(cf.s), 4))
-        reflection.fill(0)
-        local = reflect(cf, reflection)
-        local += cf.s.emissive
-        cf.put(out, local)
-        cf.put(reflection_image, reflection)
-
-    rf.for_chunks(work, streams=(3,))
+    """The reflections pass over the frame's G-buffer (one compiled call), radiance and
+    rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
+    out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
+    s, data = rf.gb.surface, rf.data
+    rf.tracer.rays_traced += rf.tracer.run_parallel(
+        reflections_frame, rf.gb.soa, rf.key_base(3),
+        np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
+        rf.options.get("reflections.max_depth"), data.lights.kernel_args, data.eps, data.far, rf.tracer.frame_target(),
+        gather.env_args(rf.environment), data.mesh_args,
+        rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
+        reflection_image)
     return rf.outputs(out, rt_reflection=reflection_image)

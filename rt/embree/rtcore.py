@@ -22,6 +22,7 @@ from llvmlite import binding as llvm
 from numba import njit, prange, types
 
 from core.errors import UserError
+from rt.embree.kernels import take_many
 
 INVALID = np.uint32(0xFFFFFFFF)
 MISS_T = np.float32(1e30)  # t of a ray that hit nothing (rt.tracer.INF)
@@ -188,6 +189,65 @@ def intersect(scene, o, d, tmax, t, prim, u, v):
     for i in range(o.shape[0]):
         t[i], prim[i], u[i], v[i] = intersect1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2],
                                                d[i, 0], d[i, 1], d[i, 2], tmax[i])
+
+
+# -- tracing targets: a scene handle, and where the rays traced are logged ---------------------
+# The frame kernels take a target `tr` = (handle, log, count): handle 0 means "do not trace"
+# (generators pack their rays for the caller instead); log is an (n, LOG_WIDTH) float32 array
+# (or an empty one: no logging) into which every ray traced through trace_occluded /
+# trace_intersect is written, for bench --perf to trace again. A caller reserves a run of
+# slots for a step's rays (log_reserve: count advances atomically), so that each run of the log
+# holds one thread's neighbouring rays, as it traced them; slots of rays not traced stay marked.
+LOG_WIDTH = 8  # origin, direction, tmax, kind (0 occlusion, 1 closest hit, -1 a slot not traced)
+
+
+def target(handle: int, log: np.ndarray | None = None, count: np.ndarray | None = None) -> tuple:
+    """A tracing target for the kernels: the scene handle (0: pack, do not trace) and an
+    optional ray log with its counter (tracer.RayLog)."""
+    if log is None:
+        log, count = np.empty((0, LOG_WIDTH), np.float32), np.zeros(1, np.int64)
+    return np.int64(handle), log, count
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def no_trace(tr):
+    """tr's log with no scene: generators given it pack their rays instead of tracing them."""
+    return np.int64(0), tr[1], tr[2]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def log_reserve(tr, n):
+    """The first of n log slots for the caller's next rays, or -1 when tr does not log."""
+    if tr[1].shape[0] == 0:
+        return np.int64(-1)
+    return take_many(tr[2], n)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def log_put(tr, slot, kind, ox, oy, oz, dx, dy, dz, tmax):
+    """Write a ray (or with kind -1, a slot not traced) at a reserved slot; past the end of the
+    log (or slot -1) nothing is kept (RayLog.overflowed counts it)."""
+    log = tr[1]
+    if 0 <= slot < log.shape[0]:
+        log[slot, 0], log[slot, 1], log[slot, 2], log[slot, 3], log[slot, 4], log[slot, 5] = ox, oy, oz, dx, dy, dz
+        log[slot, 6], log[slot, 7] = tmax, kind
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def trace_occluded(tr, slot, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
+    """occluded1 on the target's scene, the ray logged at `slot` (log_reserve) if tr logs."""
+    log_put(tr, slot, 0.0, ox, oy, oz, dx, dy, dz, tmax)
+    return occluded1(tr[0], buf, words, b, ox, oy, oz, dx, dy, dz, tmax)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def trace_intersect(tr, o, d, tmax, t, prim, u, v):
+    """intersect() on the target's scene, the rays logged if tr logs."""
+    at = log_reserve(tr, o.shape[0])
+    if at >= 0:
+        for i in range(o.shape[0]):
+            log_put(tr, at + i, 1.0, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
+    intersect(tr[0], o, d, tmax, t, prim, u, v)
 
 
 BLOCK = 2048  # rays per work item of the parallel kernels below

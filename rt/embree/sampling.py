@@ -67,12 +67,6 @@ class PixelRng:
         r.key, r._dim = keys, [0]
         return r
 
-    def with_keys(self, keys: np.ndarray) -> PixelRng:
-        """Generators with the given keys (gathered from this one's), sharing its dimensions."""
-        r = PixelRng.__new__(PixelRng)
-        r.key, r._dim = keys, self._dim
-        return r
-
     def subset(self, index: np.ndarray) -> PixelRng:
         """The generators of some pixels (same sequences), for rays still alive."""
         r = PixelRng.__new__(PixelRng)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.embree import kernels, raygen, scratch
+from rt.embree import kernels, raygen, rtcore, scratch
 from rt.embree.tracer import Hits, Tracer
 
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -209,7 +209,7 @@ class LightSet:
         """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
         (rt/embree/raygen.py), or if scene traced and what gets through added to acc; returns their count."""
         eps, far = self.data.eps, self.data.far
-        out = (origin, direction, tmax, e, idx, scene, acc)
+        out = (origin, direction, tmax, e, idx, rtcore.target(scene), acc)
         if k < self.count_analytic:
             return raygen.analytic_shadow_rays(k, *G, keys, dim, self.analytic, eps, far, *out)
         start, rows, keep, alias = self.emitters
@@ -221,7 +221,8 @@ class LightSet:
         by its estimated contribution, packed, or if scene traced and added to acc."""
         weights = scratch.buffer("light.w", (self.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
         return raygen.one_light_shadow_rays(*G, keys, dim, self.analytic, self.emitters, self.guide, self.data.eps,
-                                            self.data.far, weights, origin, direction, tmax, e, idx, scene, acc)
+                                            self.data.far, weights, origin, direction, tmax, e, idx,
+                                            rtcore.target(scene), acc)
 
     @property
     def kernel_args(self) -> tuple:
@@ -249,28 +250,10 @@ def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int) -> 
     raygen.add_unblocked(total, idx, e, blocked, m)
 
 
-def direct_all(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None,
-               G=None) -> np.ndarray:
-    """Irradiance x cos from every light: one shadow ray per light (a sample per emissive cluster).
-    out: an (N,3) array to write into (zeroed here) instead of a new one; G: s.soa() if at hand."""
-    n = len(s)
-    total = np.zeros((n, 3), np.float32) if out is None else out
-    total.fill(0)
-    G = s.soa("light.soa") if G is None else G
-    rays = scratch.rays("light", n, with_light=True)
-    scene = tracer.inline_scene() if shadowed else 0  # then the generators trace, adding into total
-    for k in range(data.lights.count):
-        dim = rng.reserve(3)
-        o, d, t, idx, e = rays
-        _gather(tracer, total, rays, data.lights.rays(k, G, rng.key, dim, o, d, t, e, idx, scene, total), shadowed,
-                scene)
-    return total
-
-
 def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None,
                G=None) -> np.ndarray:
     """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
-    contribution there and divided by that probability: accumulates to direct_all.
+    contribution there and divided by that probability: accumulates to every light's sum.
     out: an (N,3) array to write into (zeroed here) instead of a new one; G: s.soa() if at hand."""
     n = len(s)
     dim = rng.reserve(4)

@@ -5,25 +5,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from rt.embree import gather, raygen, scratch
-from rt.embree.shading import direct_all, direct_one
-
-
-def direct_irradiance(cf, shadowed: bool = True) -> np.ndarray:
-    """Irradiance x cos at a chunk's pixels, per shadows.lights (a scratch buffer: valid until
-    this thread's next call)."""
-    estimator = direct_all if cf.options.get("shadows.lights") == "all" else direct_one
-    out = scratch.buffer("shadows.direct", (len(cf.s), 3))
-    return estimator(cf.data, cf.tracer, cf.s, cf.rng(1), shadowed, out=out, G=cf.soa)
+from rt.embree import gather, raygen
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def shadows_frame(workers, G, base, lights, one, eps, far, scene, pix, emissive, albedo, grey, view_dir, env, out,
+def shadows_frame(workers, G, base, lights, one, eps, far, tr, pix, emissive, albedo, grey, view_dir, env, out,
                   direct):
     """The whole shadows pass in one call: blocks of points split among workers (raygen.next_block),
-    each sampling, tracing and adding its shadow rays as direct_all / direct_one do (the same
-    numbers) and writing its pixels, and the uncovered ones around them (gather.fill_uncovered;
-    env: gather.env_args). Returns the rays traced."""
+    each sampling, tracing and adding its shadow rays (raygen.direct_block: to every light, or
+    to one chosen light) and writing its pixels, and the uncovered ones around them
+    (gather.fill_uncovered; env: gather.env_args; tr: the tracing target, rtcore.target).
+    Returns the rays traced."""
     n = pix.shape[0]
     # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
@@ -31,19 +23,21 @@ def shadows_frame(workers, G, base, lights, one, eps, far, scene, pix, emissive,
     lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
     n_lights = lights[3]
     env_kind, env_color, horizon, zenith, ground = env
+    handle, log, logged = tr
     bounds = raygen.block_bounds(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
         ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
               (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
+        trw = (handle, log, logged)
         while True:
             b0, b1 = raygen.next_block(counter, bounds)
             if b0 >= n:
                 break
             total = np.empty((b1 - b0, 3), np.float32)
             kb = raygen.block_keys(pix, b0, b1, base)
-            traced[w] += raygen.direct_block(G, b0, kb, ls, one, 0, eps, far, scene, total)
+            traced[w] += raygen.direct_block(G, b0, kb, ls, one, 0, eps, far, trw, total)
             gather.write_lit(out, pix[b0:b1], emissive[b0:b1], albedo[b0:b1], total, None, grey)
             if direct.shape[0] > 0:  # wanted (RtFrame.aux_image)
                 for j in range(b1 - b0):
@@ -55,23 +49,13 @@ def shadows_frame(workers, G, base, lights, one, eps, far, scene, pix, emissive,
 
 
 def trace(rf) -> dict:
-    grey = rf.options.get("shadows.greyscale")
-    scene = rf.tracer.frame_scene()
-    if scene and rf.gb.soa is not None:  # one compiled call: no Python per chunk
-        out, direct = rf.frame_outputs(name="rt_direct")
-        s, data = rf.gb.surface, rf.data
-        one = rf.options.get("shadows.lights") == "one"
-        rf.tracer.rays_traced += rf.tracer.run_parallel(
-            shadows_frame, rf.gb.soa, rf.key_base(1), data.lights.kernel_args, one, data.eps, data.far, scene,
-            rf.gb.index, s.emissive, s.albedo, grey, rf.gb.view_dir, gather.env_args(rf.environment), out, direct)
-        return rf.outputs(out, rt_direct=direct)
-
-    out, direct = rf.background(), rf.aux_image(name="rt_direct")
-
-    def work(cf):
-        e = direct_irradiance(cf)
-        gather.write_lit(out, cf.idx, cf.s.emissive, cf.s.albedo, e, None, grey)
-        cf.put(direct, e)
-
-    rf.for_chunks(work, streams=(1,))
+    """The shadows pass over the frame's G-buffer (one compiled call): radiance, and rt_direct
+    (irradiance x cos) when asked."""
+    out, direct = rf.frame_outputs(name="rt_direct")
+    s, data = rf.gb.surface, rf.data
+    one = rf.options.get("shadows.lights") == "one"
+    rf.tracer.rays_traced += rf.tracer.run_parallel(
+        shadows_frame, rf.gb.soa, rf.key_base(1), data.lights.kernel_args, one, data.eps, data.far,
+        rf.tracer.frame_target(), rf.gb.index, s.emissive, s.albedo, rf.options.get("shadows.greyscale"),
+        rf.gb.view_dir, gather.env_args(rf.environment), out, direct)
     return rf.outputs(out, rt_direct=direct)

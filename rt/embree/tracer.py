@@ -51,11 +51,11 @@ class Tracer:
         occluded(). Whoever traces adds to rays_traced."""
         return 0
 
-    def frame_scene(self) -> int:
-        """An Embree scene handle for whole-frame compiled kernels that sample, trace and gather
-        every pixel in one parallel call (run_parallel), or 0: then passes run their chunks
-        through map_chunks. The caller adds the rays traced to rays_traced."""
-        return 0
+    def frame_target(self) -> tuple:
+        """The tracing target (rtcore.target) of the whole-frame kernels that sample, trace and
+        gather every pixel in one parallel call (run_parallel): the scene, and the ray log
+        while rays are recorded. The caller adds the rays traced to rays_traced."""
+        raise NotImplementedError
 
     def run_parallel(self, kernel, *args):
         """kernel(workers, *args): a numba parallel kernel that splits its work among `workers`
@@ -71,6 +71,40 @@ class Tracer:
         runs one slice."""
         with serial_kernels():
             work(slice(0, n), self)
+
+
+class RayLog:
+    """Every ray a frame traces, for bench --perf to trace again with Embree alone: the
+    whole-frame kernels append theirs to `rays` (rtcore.target), the chunked reference path its
+    batches through Tracer.intersect / occluded. capacity: rays the kernels may log; more are
+    counted but not kept (overflowed)."""
+
+    def __init__(self, capacity: int):
+        self.rays = np.empty((max(int(capacity), 1), embree.LOG_WIDTH), np.float32)
+        self.count = np.zeros(1, np.int64)  # rays the kernels logged (atomically)
+        self.batches: list = []  # (kind, origins, directions, tmax) from the Python-level calls
+
+    def add(self, kind: str, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> None:
+        self.batches.append((kind, o.copy(), d.copy(), tmax.copy()))
+
+    @property
+    def overflowed(self) -> bool:
+        return int(self.count[0]) > self.rays.shape[0]
+
+    def all_batches(self) -> list:
+        """Every logged ray as (kind, origins, directions, tmax) batches, kind "occluded" or
+        "intersect" (Tracer.replay's input)."""
+        logged = self.rays[:min(int(self.count[0]), self.rays.shape[0])]
+        out = list(self.batches)
+        for kind, code in (("occluded", 0.0), ("intersect", 1.0)):
+            mine = logged[logged[:, 7] == code]
+            if len(mine):
+                out.append((kind, np.ascontiguousarray(mine[:, 0:3]), np.ascontiguousarray(mine[:, 3:6]),
+                            np.ascontiguousarray(mine[:, 6])))
+        return out
+
+    def __len__(self) -> int:
+        return sum(b[1].shape[0] for b in self.all_batches())
 
 
 def default_threads() -> int:
@@ -92,8 +126,7 @@ class EmbreeTracer(Tracer):
         self.chunks_per_worker = 1
         self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self.rays_traced = 0
-        self.recording: list | None = None  # set to [] to keep every ray batch (bench --perf replays them)
-        self._kind_suffix = ""  # "_chunk" on the serial views that chunk workers trace with
+        self.recording: RayLog | None = None  # set to keep every ray traced (bench --perf replays them)
         self._costs: dict = {}  # map_chunks key -> its cost profile (cost_profile)
 
     def _chunk_count(self, n: int, per_thread: int | None = None) -> int:
@@ -122,7 +155,7 @@ class EmbreeTracer(Tracer):
         u = np.empty(n, np.float32)
         v = np.empty(n, np.float32)
         if self.recording is not None:
-            self.recording.append(("intersect" + self._kind_suffix, o.copy(), d.copy(), dist.copy()))
+            self.recording.add("intersect", o, d, dist)
         if n:
             self._map(lambda c: embree.intersect(self.handle, o[c], d[c], dist[c], t[c], prim[c], u[c], v[c]), n)
         self.rays_traced += n
@@ -135,7 +168,7 @@ class EmbreeTracer(Tracer):
         dist = _distances(tmax, n)
         out = np.empty(n, bool)
         if self.recording is not None:
-            self.recording.append(("occluded" + self._kind_suffix, o.copy(), d.copy(), dist.copy()))
+            self.recording.add("occluded", o, d, dist)
         if n:
             self._map(lambda c: embree.occluded(self.handle, o[c], d[c], dist[c], out[c]), n)
         self.rays_traced += n
@@ -146,8 +179,9 @@ class EmbreeTracer(Tracer):
         # parallelism; and not while rays are recorded (bench --perf replays them)
         return self.handle if (self.pool is None and self.recording is None) else 0
 
-    def frame_scene(self) -> int:
-        return self.handle if self.recording is None else 0  # recorded rays go through occluded()
+    def frame_target(self) -> tuple:
+        log = self.recording
+        return embree.target(self.handle, *((log.rays, log.count) if log is not None else ()))
 
     def run_parallel(self, kernel, *args):
         """kernel(workers, *args) on self.threads of numba's threads (a setting of the calling
@@ -166,7 +200,6 @@ class EmbreeTracer(Tracer):
         """The same scene, traced on the calling thread (for code already running in a chunk)."""
         view = copy.copy(self)
         view.pool, view.threads, view.chunks_per_thread, view.rays_traced = None, 1, 1, 0
-        view._kind_suffix = "_chunk"
         return view
 
     def map_chunks(self, n: int, work, key=None) -> None:
@@ -248,7 +281,7 @@ class EmbreeTracer(Tracer):
         for kind, fn, outputs in (("occluded", embree.occluded_parallel, (bool,)),
                                   ("intersect", embree.intersect_parallel, (np.float32, np.int32, np.float32,
                                                                              np.float32))):
-            mine = [b for b in batches if b[0].startswith(kind)]
+            mine = [b for b in batches if b[0] == kind]
             if not mine:
                 continue
             # gathered into one array of each before the clock starts, as a pass's scratch is
