@@ -57,6 +57,16 @@ class RtFrame:
         aux = self._buffer(f"image{channels}{name}", channels) if self.aux else no_image(channels)
         return self._buffer("background", 3), aux
 
+    def kernel_frame(self, out: np.ndarray, aux: np.ndarray):
+        """This frame as the whole-frame kernels read it (kernel_args.FrameArgs), writing into
+        out and aux (frame_outputs)."""
+        from rt.embree.gather import env_args
+        from rt.embree.kernel_args import FrameArgs
+
+        s = self.gb.surface
+        return FrameArgs(self.gb.soa, self.gb.index, self.gb.view_dir, s.p, s.n, s.ng, s.albedo, s.roughness,
+                         s.metallic, s.emissive, env_args(self.environment), self.tracer.frame_target(), out, aux)
+
     def aux_image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
         """image(channels, fill, name) for a pass's output besides radiance, or when the frame
         makes radiance only (aux False) an empty (0, channels) array: the kernels and

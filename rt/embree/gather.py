@@ -91,6 +91,18 @@ def fill_uncovered(out, aux, aux_fill, pix, b0, b1, view_dir, env):
         _fill_run(out, aux, aux_fill, view_dir, terms, p, out.shape[0])
 
 
+@njit(cache=True, error_model="numpy", nogil=True)
+def put_rows(image, pix, values):
+    """image[pix[j]] = values[j] for a block's points, unless the image is empty (not asked for:
+    RtFrame.aux_image)."""
+    if image.shape[0] == 0:
+        return
+    for j in range(pix.shape[0]):
+        p = pix[j]
+        for a in range(values.shape[1]):
+            image[p, a] = values[j, a]
+
+
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def write_lit(out, pix, emissive, albedo, direct, extra, grey):
     """out[pix[j]] = emissive + albedo x (direct / pi + extra); grey: albedo 1, no emission;

@@ -18,6 +18,8 @@ from numba.core import cgutils
 from numba.core import types as nbtypes
 from numba.extending import intrinsic
 
+from rt.embree.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
+
 TWO_PI = 2.0 * math.pi
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -303,8 +305,8 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
             P[j, 0], P[j, 1], P[j, 2] = px, py, pz
             N[j, 0], N[j, 1], N[j, 2] = nx, ny, nz
             NG[j, 0], NG[j, 1], NG[j, 2] = gx, gy, gz
-            G[0, j], G[1, j], G[2, j], G[3, j], G[4, j], G[5, j] = px, py, pz, nx, ny, nz
-            G[6, j], G[7, j], G[8, j] = gx, gy, gz
+            G[PX, j], G[PY, j], G[PZ, j], G[NX, j], G[NY, j], G[NZ, j] = px, py, pz, nx, ny, nz
+            G[GX, j], G[GY, j], G[GZ, j] = gx, gy, gz
             c = geometry[r, x, 3]
             for a in range(3):
                 albedo[j, a] = np.float32((c >> (8 * a)) & 0xFF) * np.float32(1 / 255)

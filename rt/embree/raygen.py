@@ -31,6 +31,34 @@ from numba import njit
 
 from rt.embree import rtcore as embree
 from rt.embree.kernels import pixel_key, take_next, uniform
+from rt.embree.layout import (
+    CONE_COS,
+    CONE_SCALE,
+    EDGE1,
+    EDGE2,
+    EMISSION,
+    FACE_NORMAL,
+    GX,
+    GY,
+    GZ,
+    INV_PROB,
+    IS_EMITTER,
+    IS_SUN,
+    LIGHT_ROW,
+    NX,
+    NY,
+    NZ,
+    PICKED_ROWS,
+    POSITION,
+    PX,
+    PY,
+    PZ,
+    RADIANCE,
+    SUN_COS,
+    TO_SUN,
+    TWO_SIDED,
+    VERTEX,
+)
 
 F = np.float32
 ZERO, HALF, ONE, TWO = F(0.0), F(0.5), F(1.0), F(2.0)
@@ -66,6 +94,9 @@ FRAME_BLOCK = 2048, 32768  # fewest and most points per work item of the whole-f
 BLOCKS_PER_WORKER = 8
 TAIL_SHARE = 2  # block_bounds: the last blocks take at most 1 / (TAIL_SHARE x workers) of what is left
 RUN = 256  # points per step: a vectorised loop fills the step's rays, a short serial one packs them
+# a step's rays (`blk`, a column per point): direction, distance to the light, the light it
+# carries (AO rays: CARRIED > 0 where the ray is kept)
+DIR, DIST, CARRIED = 0, 3, 4
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -86,28 +117,28 @@ def surface_soa(P, N, NG, out):
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light):
     """Append the step's rays that carry something, in order: origin p + ng x offset, direction
-    (blk rows 0-2), and the point's index; for light rays (`light`) tmax from the distance in
-    row 3, stopping short of the light, and the light carried (rows 4-6), kept where it is not
-    zero; for others tmax_value, kept where row 4 > 0. Branch-free: every ray is written at
+    (blk's DIR rows), and the point's index; for light rays (`light`) tmax from the DIST row,
+    stopping short of the light, and the light CARRIED, kept where it is not zero; for others
+    tmax_value, kept where CARRIED > 0. Branch-free: every ray is written at
     slot m, and m moves on only past those kept. (The step loops leave the offset and tmax to
     this loop: fewer output rows let them vectorise.)"""
     for j in range(nb):
         i = b0 + j
-        px, py, pz = G[0, g0 + i], G[1, g0 + i], G[2, g0 + i]
+        px, py, pz = G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i]
         s = offset(eps, px, py, pz)
-        origin[m, 0] = px + G[6, g0 + i] * s
-        origin[m, 1] = py + G[7, g0 + i] * s
-        origin[m, 2] = pz + G[8, g0 + i] * s
-        direction[m, 0], direction[m, 1], direction[m, 2] = blk[0, j], blk[1, j], blk[2, j]
+        origin[m, 0] = px + G[GX, g0 + i] * s
+        origin[m, 1] = py + G[GY, g0 + i] * s
+        origin[m, 2] = pz + G[GZ, g0 + i] * s
+        direction[m, 0], direction[m, 1], direction[m, 2] = blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j]
         idx[m] = i
         if light:
-            tmax[m] = max(blk[3, j] - TWO * s, s)
-            ex, ey, ez = blk[4, j], blk[5, j], blk[6, j]
+            tmax[m] = max(blk[DIST, j] - TWO * s, s)
+            ex, ey, ez = blk[CARRIED, j], blk[CARRIED + 1, j], blk[CARRIED + 2, j]
             e[m, 0], e[m, 1], e[m, 2] = ex, ey, ez
             m += max(ex, ey, ez) > ZERO
         else:
             tmax[m] = tmax_value
-            m += blk[4, j] > ZERO
+            m += blk[CARRIED, j] > ZERO
     return m
 
 
@@ -120,20 +151,20 @@ def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, ligh
     for j in range(nb):
         slot = at + j if at >= 0 else at
         if light:
-            ex, ey, ez = blk[4, j], blk[5, j], blk[6, j]
+            ex, ey, ez = blk[CARRIED, j], blk[CARRIED + 1, j], blk[CARRIED + 2, j]
             if not max(ex, ey, ez) > ZERO:
                 embree.log_put(tr, slot, -ONE, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO)
                 continue
-        elif not blk[4, j] > ZERO:
+        elif not blk[CARRIED, j] > ZERO:
             embree.log_put(tr, slot, -ONE, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO)
             continue
         i = b0 + j
-        px, py, pz = G[0, g0 + i], G[1, g0 + i], G[2, g0 + i]
+        px, py, pz = G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i]
         s = offset(eps, px, py, pz)
-        t = max(blk[3, j] - TWO * s, s) if light else tmax_value
+        t = max(blk[DIST, j] - TWO * s, s) if light else tmax_value
         m += 1
-        if embree.trace_occluded(tr, slot, buf, words, b, px + G[6, g0 + i] * s, py + G[7, g0 + i] * s,
-                                 pz + G[8, g0 + i] * s, blk[0, j], blk[1, j], blk[2, j], t):
+        if embree.trace_occluded(tr, slot, buf, words, b, px + G[GX, g0 + i] * s, py + G[GY, g0 + i] * s,
+                                 pz + G[GZ, g0 + i] * s, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t):
             continue
         if light:
             acc[i, 0] += ex
@@ -142,6 +173,15 @@ def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, ligh
         else:
             acc[i, 0] += ONE
     return m
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _emit(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, tr, buf, words, b, acc, light):
+    """A step's rays (blk), traced into acc if tr has a scene (_trace_add), else packed after the
+    m already packed (_pack); returns the new count."""
+    if tr[0]:
+        return m + _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, light)
+    return _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light)
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -179,12 +219,10 @@ def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, 
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
         c0, c1 = g0 + b0, g0 + b1  # columns of G
-        _hemisphere_step(G[3, c0:c1], G[4, c0:c1], G[5, c0:c1], G[6, c0:c1], G[7, c0:c1], G[8, c0:c1],
+        _hemisphere_step(G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1], G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1],
                          keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
-        if tr[0]:
-            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, tmax_value, tr, buf, words, b, acc, False)
-        else:
-            m = _pack(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, False)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, tr, buf, words, b,
+                  acc, False)
     return m
 
 
@@ -256,14 +294,29 @@ def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direct
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
         c0, c1 = g0 + b0, g0 + b1  # columns of G
-        _analytic_step(k, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
-                       G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, analytic, far,
+        _analytic_step(k, G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
+                       G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1], dim, analytic, far,
                        blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        if tr[0]:
-            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, far, tr, buf, words, b, acc, True)
-        else:
-            m = _pack(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, True)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
     return m
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _toward_emitter(S, j, u, w, px, py, pz):
+    """From (px, py, pz) towards a uniform point (numbers u, w) on the triangle of light row
+    S[:, j] (layout.py): the unit direction, the squared distance, 1 / the distance, and
+    cos_light / d^2 (0 behind a one-sided emitter)."""
+    su = np.sqrt(u)
+    b1, b2 = su * (ONE - w), su * w
+    vx = S[VERTEX, j] + S[EDGE1, j] * b1 + S[EDGE2, j] * b2 - px
+    vy = S[VERTEX + 1, j] + S[EDGE1 + 1, j] * b1 + S[EDGE2 + 1, j] * b2 - py
+    vz = S[VERTEX + 2, j] + S[EDGE1 + 2, j] * b1 + S[EDGE2 + 2, j] * b2 - pz
+    d2 = max(vx * vx + vy * vy + vz * vz, TINY)
+    inv = ONE / np.sqrt(d2)
+    x, y, z = vx * inv, vy * inv, vz * inv
+    cl = -(S[FACE_NORMAL, j] * x + S[FACE_NORMAL + 1, j] * y + S[FACE_NORMAL + 2, j] * z)
+    cl = abs(cl) if S[TWO_SIDED, j] > ZERO else max(cl, ZERO)
+    return x, y, z, d2, inv, cl * inv * inv
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -285,19 +338,9 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
         for c in range(LIGHT_ROW):
             S[c, j] = rows[t, c]
     for j in range(nb):
-        su = np.sqrt(U[1, j])
-        b1, b2 = su * (ONE - U[2, j]), su * U[2, j]
-        vx = S[0, j] + S[3, j] * b1 + S[6, j] * b2 - px[j]
-        vy = S[1, j] + S[4, j] * b1 + S[7, j] * b2 - py[j]
-        vz = S[2, j] + S[5, j] * b1 + S[8, j] * b2 - pz[j]
-        d2 = max(vx * vx + vy * vy + vz * vz, TINY)
-        inv = ONE / np.sqrt(d2)
-        x, y, z = vx * inv, vy * inv, vz * inv
-        cl = -(S[9, j] * x + S[10, j] * y + S[11, j] * z)
-        cl = abs(cl) if S[15, j] > ZERO else max(cl, ZERO)
-        g = cl * inv * inv
-        _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, d2 * inv * F(1.0 - 1e-4), S[12, j] * g, S[13, j] * g,
-                   S[14, j] * g, dx, dy, dz, dd, er, eg, eb)
+        x, y, z, d2, inv, g = _toward_emitter(S, j, U[1, j], U[2, j], px[j], py[j], pz[j])
+        _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, d2 * inv * F(1.0 - 1e-4), S[EMISSION, j] * g,
+                   S[EMISSION + 1, j] * g, S[EMISSION + 2, j] * g, dx, dy, dz, dd, er, eg, eb)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
@@ -314,13 +357,10 @@ def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
         c0, c1 = g0 + b0, g0 + b1  # columns of G
-        _cluster_step(lo, hi, G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1],
-                      G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1], dim, rows, keep, alias,
+        _cluster_step(lo, hi, G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
+                      G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1], dim, rows, keep, alias,
                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], U, S, b1 - b0)
-        if tr[0]:
-            m += _trace_add(G, g0, b0, b1 - b0, blk, eps, ZERO, tr, buf, words, b, acc, True)
-        else:
-            m = _pack(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, True)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
     return m
 
 
@@ -396,44 +436,41 @@ def _draw_samples(keys, dim, nb, u1, u2, u3):
         u1[i], u2[i], u3[i] = uniform(key, dim + 1), uniform(key, dim + 2), uniform(key, dim + 3)
 
 
-LIGHT_ROW = 16  # what sampling a picked light needs, one row per analytic light or emitting triangle
-PICKED_ROWS = LIGHT_ROW + 2  # + 1 / the pick's probability, + is it an emitter
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def analytic_rows(analytic):
-    """One LIGHT_ROW row per analytic light: position, direction to a sun (minus the light's
-    direction), the spot cone's cos_out and scale (a point light's: -2 and 1, never cut), the
-    cosine of a sun's angular radius, 1 for a sun, radiance."""
+    """One light row (layout.py) per analytic light."""
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
     out = np.zeros((kind.shape[0], LIGHT_ROW), np.float32)
     for k in range(kind.shape[0]):
         for a in range(3):
-            out[k, a], out[k, 3 + a], out[k, 10 + a] = lpos[k, a], -ldir[k, a], lrad[k, a]
+            out[k, POSITION + a], out[k, TO_SUN + a], out[k, RADIANCE + a] = lpos[k, a], -ldir[k, a], lrad[k, a]
         spot = kind[k] == 1
-        out[k, 6] = cos_out[k] if spot else F(-2.0)
-        out[k, 7] = spot_scale[k] if spot else ONE
-        out[k, 8] = cos_ang[k]
-        out[k, 9] = ONE if kind[k] == 2 else ZERO
+        out[k, CONE_COS] = cos_out[k] if spot else F(-2.0)
+        out[k, CONE_SCALE] = spot_scale[k] if spot else ONE
+        out[k, SUN_COS] = cos_ang[k]
+        out[k, IS_SUN] = ONE if kind[k] == 2 else ZERO
     return out
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
-    """S[:16, b]: the row of what point b picked (the analytic light's, or for an emissive
-    cluster the triangle drawn from it with u1, alias method), S[16, b] 1 / the pick's
-    probability (0 where the light cannot contribute), S[17, b] 1 for an emitter. A serial
+    """S[:LIGHT_ROW, b]: the row of what point b picked (the analytic light's, or for an
+    emissive cluster the triangle drawn from it with u1, alias method), S[INV_PROB, b] 1 / the
+    pick's probability (0 where the light cannot contribute), S[IS_EMITTER, b] 1 for an
+    emitter. A serial
     loop of loads, so that the sampling loop after it reads unit-stride rows and vectorises."""
     start, rows, keep, alias = emitters
     for b in range(nb):
         kk = int(pick[b])
         wk = w[kk, b] - (w[kk - 1, b] if kk > 0 else ZERO)
         prob = wk / total[b] if total[b] > ZERO else ZERO
-        S[16, b] = ONE / prob if prob > ZERO else ZERO
+        S[INV_PROB, b] = ONE / prob if prob > ZERO else ZERO
         if kk < na:
             for c in range(LIGHT_ROW):
                 S[c, b] = table[kk, c]
-            S[17, b] = ZERO
+            S[IS_EMITTER, b] = ZERO
         else:
             lo, hi = start[kk - na], start[kk - na + 1]
             x = u1[b] * F(hi - lo)
@@ -442,7 +479,7 @@ def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
             j = j if (x - F(slot)) < keep[j] else lo + alias[j]
             for c in range(LIGHT_ROW):
                 S[c, b] = rows[j, c]
-            S[17, b] = ONE
+            S[IS_EMITTER, b] = ONE
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -454,41 +491,31 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx,
     (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies."""
     for b in range(nb):
         # a sun: a direction in its cone
-        ax, ay, az = S[3, b], S[4, b], S[5, b]
-        ct = ONE - u1[b] * (ONE - S[8, b])
+        ax, ay, az = S[TO_SUN, b], S[TO_SUN + 1, b], S[TO_SUN + 2, b]
+        ct = ONE - u1[b] * (ONE - S[SUN_COS, b])
         st = np.sqrt(max(ZERO, ONE - ct * ct))
         ux, uy, uz = about(ax, ay, az, st * cos_turns(u2[b]), st * sin_turns(u2[b]), ct)
-        # a point or spot light: glTF's squared linear ramp
-        vx, vy, vz = S[0, b] - px[b], S[1, b] - py[b], S[2, b] - pz[b]
+        # a point or spot light: glTF's squared linear ramp (TO_SUN holds a spot's axis, reversed)
+        vx, vy, vz = S[POSITION, b] - px[b], S[POSITION + 1, b] - py[b], S[POSITION + 2, b] - pz[b]
         d2 = max(vx * vx + vy * vy + vz * vz, TINY)
         r = ONE / np.sqrt(d2)
         qx, qy, qz = vx * r, vy * r, vz * r
-        t = min(max(((qx * ax + qy * ay + qz * az) - S[6, b]) * S[7, b], ZERO), ONE)
-        is_sun = S[9, b] > ZERO
+        t = min(max(((qx * ax + qy * ay + qz * az) - S[CONE_COS, b]) * S[CONE_SCALE, b], ZERO), ONE)
+        is_sun = S[IS_SUN, b] > ZERO
         att = ONE if is_sun else r * r * t * t
         # a point on an emitting triangle: Le x cos_light / d^2 / pdf_area
-        su = np.sqrt(u2[b])
-        b1, b2 = su * (ONE - u3[b]), su * u3[b]
-        wx = S[0, b] + S[3, b] * b1 + S[6, b] * b2 - px[b]
-        wy = S[1, b] + S[4, b] * b1 + S[7, b] * b2 - py[b]
-        wz = S[2, b] + S[5, b] * b1 + S[8, b] * b2 - pz[b]
-        e2 = max(wx * wx + wy * wy + wz * wz, TINY)
-        ri = ONE / np.sqrt(e2)
-        mx, my, mz = wx * ri, wy * ri, wz * ri
-        cl = -(S[9, b] * mx + S[10, b] * my + S[11, b] * mz)
-        cl = abs(cl) if S[15, b] > ZERO else max(cl, ZERO)
-        g = cl * ri * ri
-        inv = S[16, b]
-        if S[17, b] > ZERO:
+        mx, my, mz, e2, ri, g = _toward_emitter(S, b, u2[b], u3[b], px[b], py[b], pz[b])
+        inv = S[INV_PROB, b]
+        if S[IS_EMITTER, b] > ZERO:
             x, y, z, dist = mx, my, mz, e2 * ri * F(1.0 - 1e-4)
-            ex, ey, ez = S[12, b] * g * inv, S[13, b] * g * inv, S[14, b] * g * inv
+            ex, ey, ez = S[EMISSION, b] * g * inv, S[EMISSION + 1, b] * g * inv, S[EMISSION + 2, b] * g * inv
         else:
             x = ux if is_sun else qx
             y = uy if is_sun else qy
             z = uz if is_sun else qz
             dist = far if is_sun else d2 * r
             att *= inv
-            ex, ey, ez = S[10, b] * att, S[11, b] * att, S[12, b] * att
+            ex, ey, ez = S[RADIANCE, b] * att, S[RADIANCE + 1, b] * att, S[RADIANCE + 2, b] * att
         _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
 
 
@@ -497,7 +524,8 @@ def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, e
     """_picked_rays where the scene's one light is a sun (row: its LIGHT_ROW): the cone sample
     alone, from the same two numbers (dimensions dim + 1 and dim + 2), without the point
     light's and the emitter's maths or the third number that only they use."""
-    ax, ay, az, cos_ang, r0, r1, r2 = row[3], row[4], row[5], row[8], row[10], row[11], row[12]
+    ax, ay, az, cos_ang = row[TO_SUN], row[TO_SUN + 1], row[TO_SUN + 2], row[SUN_COS]
+    r0, r1, r2 = row[RADIANCE], row[RADIANCE + 1], row[RADIANCE + 2]
     for b in range(nb):
         key = keys[b]
         x, y, z = _sun(ax, ay, az, cos_ang, uniform(key, dim + 1), uniform(key, dim + 2))
@@ -520,13 +548,13 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
                                        weights[n_lights + 3], weights[n_lights + 4], weights[n_lights + 5])
     S = np.empty((PICKED_ROWS, BLOCK), np.float32)
     single = n_lights == 1 and na == 1  # the pick is that light, with probability 1, at every point
-    sun_only = single and table[0, 9] > ZERO  # and a sun: _sun_rays
+    sun_only = single and table[0, IS_SUN] > ZERO  # and a sun: _sun_rays
     if single:  # its row once for every block: no weights, no pick, no gather
         for c in range(LIGHT_ROW):
             for b in range(BLOCK):
                 S[c, b] = table[0, c]
-        S[16, :] = ONE  # 1 / the pick's probability (where the light cannot contribute, _light_ray gives 0)
-        S[17, :] = ZERO
+        S[INV_PROB, :] = ONE  # probability 1 (where the light cannot contribute, _light_ray gives 0)
+        S[IS_EMITTER, :] = ZERO
     blk = np.empty((7, BLOCK), np.float32)
     dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
     buf, rb = embree.ray_buffer()
@@ -537,8 +565,8 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
         b1 = min(b0 + BLOCK, n)
         c0, c1 = g0 + b0, g0 + b1  # columns of G
         nb = b1 - b0
-        px, py, pz, nx, ny, nz = G[0, c0:c1], G[1, c0:c1], G[2, c0:c1], G[3, c0:c1], G[4, c0:c1], G[5, c0:c1]
-        gx, gy, gz, bkeys = G[6, c0:c1], G[7, c0:c1], G[8, c0:c1], keys[b0:b1]
+        px, py, pz, nx, ny, nz = G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1]
+        gx, gy, gz, bkeys = G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1]
         if sun_only:
             _sun_rays(bkeys, dim, nb, table[0], nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
         else:
@@ -552,10 +580,7 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
                         pick[i] += ONE if w[k, i] <= target[i] else ZERO
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
             _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
-        if tr[0]:
-            m += _trace_add(G, g0, b0, nb, blk, eps, far, tr, buf, words, rb, acc, True)
-        else:
-            m = _pack(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, True)
+        m = _emit(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
     return m
 
 

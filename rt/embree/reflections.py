@@ -15,19 +15,21 @@ _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, tr, env, mesh, refl):
-    """One mirror bounce: from the points sel[k] of (P, N, NG)
-    seen along V[k] (keys[k]: their generators), ray k's closest hit shaded (lit: with its own
-    light sample, dimensions dim0..dim0+3) and its colour; refl[k] gains the environment where
-    ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
-    (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
-    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
-    env_kind, env_color, horizon, zenith, ground = env
+def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, refl):
+    """One mirror bounce: from the points sel[k] of (P, N, NG) seen along V[k] (keys[k]: their
+    generators), ray k's closest hit shaded (lit: with its own light sample, dimensions
+    dim0..dim0+3) and its colour; refl[k] gains the environment where ray k missed. Returns
+    the rays that hit (hits), every ray's direction (d), the hits' shading (P, N, NG, albedo,
+    roughness, metallic, emission), colour and keys, and the rays traced."""
+    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = (
+        scene.mesh)
+    env_kind, env_color, horizon, zenith, ground = frame.env
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
-    gather.mirror_rays(P, N, NG, V, sel, eps, o, d)
-    th, prim, u, v = np.empty(m, np.float32), np.empty(m, np.int32), np.empty(m, np.float32), np.empty(m, np.float32)
-    embree.trace_intersect(tr, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
+    gather.mirror_rays(P, N, NG, V, sel, scene.eps, o, d)
+    th, prim = np.empty(m, np.float32), np.empty(m, np.int32)  # hits: distance, triangle, barycentrics
+    u, v = np.empty(m, np.float32), np.empty(m, np.float32)
+    embree.trace_intersect(frame.target, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
     owner, hit = np.arange(m), np.empty(m, np.int64)
     k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, hit)
     hits = hit[:k]
@@ -44,15 +46,15 @@ def _mirror_hits(P, N, NG, V, sel, keys, dim0, lit, ls, eps, far, tr, env, mesh,
     if lit:
         hg = np.empty((9, k), np.float32)
         raygen.surface_soa(HP, HN, HNG, hg)
-        traced += raygen.direct_block(hg, 0, hkeys, ls, True, dim0, eps, far, tr, hdirect)
+        traced += raygen.direct_block(hg, 0, hkeys, scene.lights, True, dim0, scene.eps, scene.far, frame.target,
+                                      hdirect)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
     return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _deeper(depth, thr, lit, ls, eps, far, tr, env, mesh, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys,
-            colour):
+def _deeper(scene, frame, depth, thr, lit, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys, colour):
     """Mirrors 2..depth below the first mirror's hits (their shading, keys and colour; d: the
     first mirror rays' directions): each level's smooth hits reflect again (_mirror_hits, light
     dimensions 4 x level), then, deepest first, each level's colour takes Fresnel's blend with
@@ -81,7 +83,7 @@ def _deeper(depth, thr, lit, ls, eps, far, tr, env, mesh, HP, HN, HNG, halb, hro
         for j in range(m):
             skeys[j] = pkeys[sel[lv, j]]
         h, dd, P2, N2, NG2, alb2, rough2, metal2, emis2, col2, keys2, t = _mirror_hits(
-            pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ls, eps, far, tr, env, mesh, refl[lv])
+            scene, frame, pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, refl[lv])
         traced += t
         k = h.shape[0]
         hit_count[lv] = k
@@ -106,96 +108,75 @@ def _deeper(depth, thr, lit, ls, eps, far, tr, env, mesh, HP, HN, HNG, halb, hro
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, G, base, thr, lit, depth, lights, eps, far, tr, env, mesh, pix, surface, view_dir,
-                      out, reflection_image):
-    """The whole reflections pass in one call: blocks of points split among workers
-    (raygen.next_block), each taking, per point: the local colour (lit: one chosen light,
-    shadowed), a mirror ray from each point smoother than thr, its closest hit shaded (lit:
-    with its own light sample), up to `depth` mirrors deep (_deeper), Fresnel's blend and the
-    pixels written, with the uncovered ones around them (gather.fill_uncovered).
-    Returns the rays traced. env: gather.env_args; mesh: what SceneData.surface shades hits
-    with; surface: the G-buffer's (p, n, ng, albedo, roughness, metallic, emissive); tr: the
-    tracing target (rtcore.target)."""
+def reflections_frame(workers, scene, frame, base, thr, lit, depth):
+    """The whole reflections pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs;
+    base: RtFrame.key_base). Blocks of points split among workers, each block: the local colour
+    (lit: one chosen light, shadowed; else the albedo, as the study), a mirror ray from each
+    point smoother than thr, its closest hit shaded (lit: with its own light sample), up to
+    `depth` mirrors deep (_deeper), Fresnel's blend; then the block's pixels, the reflection
+    (RGBA) into frame.aux, and the uncovered pixels around them. Returns the rays traced."""
+    pix = frame.pix
     n = pix.shape[0]
-    # the loop body may not take tuples of arrays from outside (numba): unpacked here, rebuilt there
-    kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = lights[0]
-    start, rows, keep, alias = lights[1]
-    lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power = lights[2]
-    n_lights = lights[3]
-    env_kind, env_color, horizon, zenith, ground = env
-    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data = mesh
-    P, N, NG, albedo, rough, metal, emissive = surface
-    handle, log, logged = tr
     bounds = raygen.block_bounds(n, workers)
     counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
     traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
     for w in prange(workers):  # each takes blocks until none is left
-        ls = ((kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum), (start, rows, keep, alias),
-              (lx, ly, lz, sx, sy, sz, glum, gcos, gscale, sun, cx, cy, cz, radius, power), n_lights)
-        trw = (handle, log, logged)
         while True:
             b0, b1 = raygen.next_block(counter, bounds)
             if b0 >= n:
                 break
             nb = b1 - b0
-            kb = raygen.block_keys(pix, b0, b1, base)
+            keys = raygen.block_keys(pix, b0, b1, base)
+            albedo = frame.albedo[b0:b1]
+            # ---- the local colour ----
             local = np.empty((nb, 3), np.float32)
             if lit:
-                traced[w] += raygen.direct_block(G, b0, kb, ls, True, 0, eps, far, trw, local)
+                traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.eps, scene.far,
+                                                 frame.target, local)
                 for j in range(nb):
                     for a in range(3):
-                        local[j, a] *= albedo[b0 + j, a] * INV_PI
+                        local[j, a] *= albedo[j, a] * INV_PI
             else:
-                local[:] = albedo[b0:b1]
+                local[:] = albedo
+            # ---- mirror rays from the smooth points, their hits, and deeper mirrors ----
             smooth, near = np.empty(nb, np.int64), np.empty(nb, np.int64)  # frame rows, block rows
             m = 0
             for j in range(nb):
-                if rough[b0 + j] < thr:
+                if frame.roughness[b0 + j] < thr:
                     smooth[m], near[m] = b0 + j, j
                     m += 1
             V, skeys = np.empty((m, 3), np.float32), np.empty(m, np.uint64)
             for k in range(m):
                 p = pix[smooth[k]]
-                V[k, 0], V[k, 1], V[k, 2] = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
-                skeys[k] = kb[near[k]]
-            envt = (env_kind, env_color, horizon, zenith, ground)
-            mesht = (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h,
-                     tex_data)
+                V[k, 0], V[k, 1], V[k, 2] = frame.view_dir[p, 0], frame.view_dir[p, 1], frame.view_dir[p, 2]
+                skeys[k] = keys[near[k]]
             refl = np.zeros((m, 3), np.float32)
             hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-                P, N, NG, V, smooth[:m], skeys, 4, lit, ls, eps, far, trw, envt, mesht, refl)
+                scene, frame, frame.p, frame.n, frame.ng, V, smooth[:m], skeys, 4, lit, refl)
             traced[w] += t
             if depth > 1:
-                traced[w] += _deeper(depth, thr, lit, ls, eps, far, trw, envt, mesht, HP, HN, HNG, halb, hrough,
-                                     hmetal, hemis, d, hits, hkeys, colour)
+                traced[w] += _deeper(scene, frame, depth, thr, lit, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits,
+                                     hkeys, colour)
             for i in range(hits.shape[0]):
                 for a in range(3):
                     refl[hits[i], a] = colour[i, a]
+            # ---- Fresnel's blend, and the pixels ----
             reflection = np.zeros((nb, 4), np.float32)
-            gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo[b0:b1], metal[b0:b1],
-                                N[b0:b1], V, refl, reflection)
-            wanted = reflection_image.shape[0] > 0  # (RtFrame.aux_image)
-            for j in range(nb):
-                p = pix[b0 + j]
-                for a in range(3):
-                    out[p, a] = local[j, a] + emissive[b0 + j, a]
-                if wanted:
-                    for a in range(4):
-                        reflection_image[p, a] = reflection[j, a]
-            gather.fill_uncovered(out, reflection_image, np.float32(0.0), pix, b0, b1, view_dir, envt)
+            gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo, frame.metallic[b0:b1],
+                                frame.n[b0:b1], V, refl, reflection)
+            local += frame.emissive[b0:b1]
+            gather.put_rows(frame.out, pix[b0:b1], local)
+            gather.put_rows(frame.aux, pix[b0:b1], reflection)
+            gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
     return traced.sum()
 
 
 def trace(rf) -> dict:
-    """The reflections pass over the frame's G-buffer (one compiled call), radiance and
+    """The reflections pass over the frame's G-buffer (one compiled call): radiance, and
     rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
     out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
-    s, data = rf.gb.surface, rf.data
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        reflections_frame, rf.gb.soa, rf.key_base(3),
+        reflections_frame, rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(3),
         np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-        rf.options.get("reflections.max_depth"), data.lights.kernel_args, data.eps, data.far, rf.tracer.frame_target(),
-        gather.env_args(rf.environment), data.mesh_args,
-        rf.gb.index, (s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive), rf.gb.view_dir, out,
-        reflection_image)
+        rf.options.get("reflections.max_depth"))
     return rf.outputs(out, rt_reflection=reflection_image)

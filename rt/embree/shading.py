@@ -15,13 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.embree import kernels, raygen, rtcore, scratch
+from rt.embree import kernels, layout, raygen, rtcore, scratch
 from rt.embree.tracer import Hits, Tracer
 
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 INV_PI = np.float32(1 / np.pi)
 KINDS = {"point": 0, "spot": 1, "directional": 2}
-ROW_WIDTH = 16  # emitter rows: p0, p1 - p0, p2 - p0, face normal, Le x area / pmf, double-sided
 
 
 @dataclass
@@ -103,6 +102,7 @@ class SceneData:
         self.eps = np.float32(max(scene.diagonal * 2e-5, 1e-5))
         self.far = np.float32(max(scene.diagonal * 4.0, 1.0))
         self.lights = LightSet(scene, self)
+        self._kernel_scene = None
 
     # -- surfaces ----------------------------------------------------------------------------
     def surface(self, hits: Hits, dirs: np.ndarray, origins: np.ndarray, sel=None, out: Surface | None = None):
@@ -125,6 +125,15 @@ class SceneData:
         """What surface() shades hits with, for compiled kernels that shade hits themselves."""
         return (self.corners, self.face_normals, self.base_color, self.roughness, self.metallic, self.emissive,
                 self.tex_offset, self.tex_w, self.tex_h, self.tex_data)
+
+    @property
+    def kernel_scene(self):
+        """This scene as the whole-frame kernels read it (kernel_args.SceneArgs), built once."""
+        if self._kernel_scene is None:
+            from rt.embree.kernel_args import SceneArgs
+
+            self._kernel_scene = SceneArgs(self.mesh_args, self.lights.kernel_args, self.eps, self.far)
+        return self._kernel_scene
 
     def offset(self, s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
         """Ray origins nudged off the surface (tnear stays 0, as embreex had it), on the side of `toward`."""
@@ -184,12 +193,14 @@ class LightSet:
         c_pmf = np.concatenate(pmf) if pmf else np.zeros(0)
         i = data.indices[c_tri]
         p0 = data.positions[i[:, 0]]
-        rows = np.zeros((c_tri.size, ROW_WIDTH), np.float32)
-        rows[:, 0:3], rows[:, 3:6], rows[:, 6:9] = p0, data.positions[i[:, 1]] - p0, data.positions[i[:, 2]] - p0
-        rows[:, 9:12] = data.face_normals[c_tri]
+        rows = np.zeros((c_tri.size, layout.LIGHT_ROW), np.float32)
+        rows[:, layout.VERTEX:layout.VERTEX + 3] = p0
+        rows[:, layout.EDGE1:layout.EDGE1 + 3] = data.positions[i[:, 1]] - p0
+        rows[:, layout.EDGE2:layout.EDGE2 + 3] = data.positions[i[:, 2]] - p0
+        rows[:, layout.FACE_NORMAL:layout.FACE_NORMAL + 3] = data.face_normals[c_tri]
         if c_tri.size:
-            rows[:, 12:15] = np.concatenate(le) * (data.tri_area[c_tri] / c_pmf)[:, None]  # Le x area / pmf
-            rows[:, 15] = np.concatenate(double)
+            rows[:, layout.EMISSION:layout.EMISSION + 3] = np.concatenate(le) * (data.tri_area[c_tri] / c_pmf)[:, None]
+            rows[:, layout.TWO_SIDED] = np.concatenate(double)
         self.analytic = (kind, pos, d.astype(np.float32), rad, cos_out, self.spot_scale, f32(np.cos(ang), (-1,)),
                          self.lum)  # suns: the cosine of their angular radius
         self.emitters = (np.asarray(start, np.int64), rows,

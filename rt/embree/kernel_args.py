@@ -1,0 +1,55 @@
+"""What the whole-frame kernels read, as named structures (numba StructRefs, which unlike
+tuples of arrays may be read inside a parallel loop's body):
+
+- SceneArgs, built once per scene (shading.SceneData.kernel_scene): the mesh that hits are
+  shaded with, the lights (shading.LightSet.kernel_args), the ray offset and the far distance;
+- FrameArgs, one per pass per frame (frame.RtFrame.kernel_frame): the covered pixels' points
+  (layout.py rows) and G-buffer, the environment, the tracing target (rtcore.target) and the
+  images the kernel writes."""
+from __future__ import annotations
+
+from numba import types
+from numba.experimental import structref
+
+
+@structref.register
+class SceneArgsType(types.StructRef):
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
+
+
+class SceneArgs(structref.StructRefProxy):
+    def __new__(cls, mesh, lights, eps, far):
+        return structref.StructRefProxy.__new__(cls, mesh, lights, eps, far)
+
+
+structref.define_proxy(SceneArgs, SceneArgsType, [
+    "mesh",  # (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data)
+    "lights",  # (analytic, emitters, guide, count): raygen.direct_block's
+    "eps",  # ray offset scale (raygen.offset)
+    "far",  # the length of rays to a sun or the sky
+])
+
+
+@structref.register
+class FrameArgsType(types.StructRef):
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
+
+
+class FrameArgs(structref.StructRefProxy):
+    def __new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, target, out, aux):
+        return structref.StructRefProxy.__new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic,
+                                                emissive, env, target, out, aux)
+
+
+structref.define_proxy(FrameArgs, FrameArgsType, [
+    "points",  # (9, M) the covered pixels' points as rows (layout.py)
+    "pix",  # (M,) their pixel ids
+    "view_dir",  # (N, 3) unit directions from the eye, every pixel
+    "p", "n", "ng", "albedo", "roughness", "metallic", "emissive",  # (M, ...) the G-buffer's surfaces
+    "env",  # the environment (gather.env_args)
+    "target",  # the tracing target (rtcore.target)
+    "out",  # (N, 3) radiance, every pixel
+    "aux",  # (N, C) the pass's other image, or (0, C): not asked for
+])
