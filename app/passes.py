@@ -1,7 +1,7 @@
 """Pass names of the CLI contract, and every pass's class: importing this module registers
 every pass's option group (core.options)."""
 from app.raster.channel_view import CHANNEL_VIEWS, ChannelViewPass
-from app.raster.forward import ForwardLightingPass
+from app.raster.forward_lighting import ForwardLightingPass
 from app.raster.gbuffer import GBufferPass
 from app.raster.gbuffer_pack import GBufferPackPass
 from app.raster.postprocess import AccumulationPass, DisplayPass
