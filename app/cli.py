@@ -65,6 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--perf-rounds", type=int, help="sweeps through the thread counts for --perf's scaling, "
                    "keeping each count's fastest frame (default 2; more on a noisy shared host)")
 
+    s = sub.add_parser("devices", help="list the ray-tracing backends available here, and what tracer=auto picks")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+
     s = sub.add_parser("report", help="write tables, plots and recommendations from a bench folder")
     s.add_argument("dir")
     s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")
@@ -93,6 +96,31 @@ def cmd_scenes(args) -> int:
               f"{r['materials']:>9}  {bounds:<34} {', '.join(r['views'])}")
         if r["description"]:
             print(f"{'':<10} {r['description']}")
+    return 0
+
+
+def cmd_devices(args) -> int:
+    from app.gl_context import create_headless_context
+    from rt.backends import available, resolve
+
+    rows = available()
+    try:
+        ctx = create_headless_context()
+        gl = ctx.info["GL_RENDERER"]
+        ctx.release()
+    except UserError as e:
+        gl = f"none ({e})"
+    auto = resolve("auto")
+    if args.json:
+        print(json.dumps({"gl": gl, "backends": rows, "auto": auto}, indent=2))
+        return 0
+    print(f"OpenGL (raster passes): {gl}")
+    print("ray tracing (--set tracer=NAME):")
+    for r in rows:
+        kind = "GPU" if r["hardware"] else "CPU"
+        state = f"available, {kind}" if r["available"] else "not available"
+        print(f"  {r['name']:<7} {state:<15} {r['device']}")
+    print(f"tracer=auto picks: {auto}" + ("" if auto != "embree" else " (no GPU with ray tracing here)"))
     return 0
 
 
@@ -135,7 +163,8 @@ def main(argv=None) -> int:
             from app.headless import run_shot
 
             return run_shot(args)
-        return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report}[args.command](args)
+        return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report,
+                "devices": cmd_devices}[args.command](args)
     except UserError as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return e.exit_code

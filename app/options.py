@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from core.options import FALSE, GROUPS, TRUE, opt, register_group  # noqa: F401  (the old spelling)
+from rt.backends import CHOICES
 from scenes.model import Environment
 
 
@@ -22,6 +23,9 @@ class GlobalOptions:
     gbuffer: str = opt("raster", "G-buffer source: raster (GPU) or rt (primary rays)", choices=("raster", "rt"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
     env: str = opt("scene", "radiance of rays that miss: scene, black, sky or R,G,B", check=_check_env)
+    tracer: str = opt("embree", "ray-tracing backend: embree (CPU), vulkan or cuda (Slang on a GPU, or Vulkan "
+                      "on lavapipe without one), auto (a GPU with ray tracing if there is one, else embree)",
+                      choices=CHOICES)
 
 
 register_group("", GlobalOptions)

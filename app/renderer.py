@@ -15,6 +15,7 @@ from app.profiler import Profiler
 from app.raster.channel_view import CHANNEL_VIEWS
 from app.raster.gpu_scene import GpuScene
 from app.raster.upload import Uploads, read_rgba
+from core.errors import UserError
 from scenes.model import Environment
 
 
@@ -34,6 +35,18 @@ class Job:
     def cpu(self) -> bool:
         """Whether compute() has work (the viewer runs it off the GL thread)."""
         return bool(self.traced)
+
+
+def prune(passes: dict, names: list[str]) -> list[str]:
+    """The passes of a graph that something reads from (the display being what is shown):
+    walking back from the end, a pass none of whose writes a later pass reads is dropped."""
+    needed, kept = {"display"}, []
+    for name in reversed(names):
+        p = passes[name]
+        if needed & set(p.writes):
+            kept.append(name)
+            needed = (needed - set(p.writes)) | set(p.reads)
+    return kept[::-1]
 
 
 def wiring(passes: dict, names: list[str], every_output: bool) -> dict:
@@ -84,13 +97,25 @@ class Renderer:
             p.reset()
 
     def ray_tracing(self):
-        """The scene's ray-tracing backend, built on first use (the BVH build takes time)."""
-        if self.rt is None:
-            from rt.backends import create
+        """The scene's ray-tracing backend (option `tracer`), built on first use and again when
+        the option names another (the BVH build takes time). If the one asked for cannot be
+        made, the option goes back to the backend in use, which keeps running, and the error
+        is raised (the viewer shows it; the CLI prints it)."""
+        from rt.backends import create, resolve
 
-            backend = create("embree")
-            with self.profiler.cpu("bvh_build"):
-                backend.set_scene(self.scene)
+        asked = self.options.get("tracer")
+        name = resolve(asked)
+        if self.rt is None or self.rt.name != name:
+            try:
+                backend = create(name)
+                with self.profiler.cpu("bvh_build"):
+                    backend.set_scene(self.scene)
+            except UserError:
+                if self.rt is not None and asked != "auto":
+                    self.options.set("tracer", self.rt.name)
+                raise
+            if self.rt is not None:
+                self.rt.close()
             self.rt = backend
         return self.rt
 
@@ -134,12 +159,14 @@ class Renderer:
             self._state = state
         self.profiler.begin_frame()
         names = active(pass_name, self.options)
+        backend = self.ray_tracing() if any(self.passes[n].device == "rt" for n in names) else None
+        if backend is not None and not backend.accepts_gbuffer:  # it traces its own primary hits
+            names = prune(self.passes, [n for n in names if n != "gbuffer_pack"])
         traced = [n for n in names if self.passes[n].device == "rt"]
         first = names.index(traced[0]) if traced else len(names)
         last = names.index(traced[-1]) + 1 if traced else len(names)
         frame = Frame(self.ctx, self.scene, self.gpu, camera, self.prev_camera or camera, width, height, self.options,
-                      self.profiler, self.environment(), self.accumulation.count, self.seed, pass_name,
-                      self.ray_tracing() if traced else None)
+                      self.profiler, self.environment(), self.accumulation.count, self.seed, pass_name, backend)
         job = Job(frame, state, pass_name, names[:first], names[first:last], names[last:],
                   wiring(self.passes, names, self.pass_outputs))
         self._run(job, job.gl_before)

@@ -98,7 +98,7 @@ class Panel:
             changed, idx = imgui.combo("pass", idx, list(ALL))
             if changed:
                 v.pass_name = ALL[idx]
-            for key in ("exposure", "env", "accumulate", "max_frames", "gbuffer"):
+            for key in ("exposure", "env", "accumulate", "max_frames", "gbuffer", "tracer"):
                 self._option(imgui, key)
             _, v.resolution_scale = imgui.slider_float("resolution scale", v.resolution_scale, 0.25, 1.0, "%.2f")
             _, v.motion_scale = imgui.slider_float("scale while moving", v.motion_scale, 0.25, 1.0, "%.2f")

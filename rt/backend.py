@@ -35,6 +35,7 @@ class Backend:
 
     name = ""
     rays_traced = 0  # rays traced since creation (the profiler's ray count reads the difference)
+    accepts_gbuffer = True  # begin_frame takes the raster G-buffer when the graph reads one back
 
     def set_scene(self, scene) -> None:
         """Upload the scene and build its acceleration structure (once per scene)."""

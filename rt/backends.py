@@ -1,10 +1,12 @@
-"""Which ray-tracing backends exist, and making one."""
+"""Which ray-tracing backends exist here, picking one (`tracer=auto|embree|vulkan|cuda`), and
+making one."""
 from __future__ import annotations
 
 from core.errors import UserError
 from rt.backend import Backend
 
-NAMES = ("embree",)
+NAMES = ("embree", "vulkan", "cuda")
+CHOICES = ("auto",) + NAMES
 
 
 def init_process() -> None:
@@ -15,11 +17,52 @@ def init_process() -> None:
     process.init()
 
 
+def available() -> list[dict]:
+    """Every backend with what it runs on here: name, device, whether it is available, and
+    whether it is hardware (a GPU) or software (the CPU: Embree, lavapipe)."""
+    from rt.embree.tracer import default_threads
+    from rt.slang.device import describe
+
+    rows = [{"name": "embree", "device": f"CPU, {default_threads()} threads", "available": True, "hardware": False}]
+    for kind in ("vulkan", "cuda"):
+        try:
+            info = describe(kind)
+        except UserError as e:  # no slangpy
+            rows.append({"name": kind, "device": str(e), "available": False, "hardware": False})
+            continue
+        rows.append({"name": kind, "device": info.adapter if info else "no device with ray tracing",
+                     "available": info is not None, "hardware": bool(info and not info.software)})
+    return rows
+
+
+def resolve(name: str) -> str:
+    """The backend a tracer option names: `auto` is a GPU with ray tracing (CUDA/OptiX, else
+    Vulkan) if this machine has one, else Embree."""
+    if name not in CHOICES:
+        raise UserError(f"tracer: {name!r} is not one of {', '.join(CHOICES)}")
+    if name != "auto":
+        return name
+    from rt.slang.device import describe
+
+    for kind in ("cuda", "vulkan"):
+        try:
+            info = describe(kind)
+        except UserError:
+            return "embree"
+        if info is not None and not info.software:
+            return kind
+    return "embree"
+
+
 def create(name: str = "embree", **kwargs) -> Backend:
-    """A backend by name, without a scene yet (Backend.set_scene)."""
+    """A backend by name (resolved: not `auto`), without a scene yet (Backend.set_scene)."""
     if name == "embree":
         init_process()
         from rt.embree.backend import EmbreeBackend
 
         return EmbreeBackend(**kwargs)
+    if name in ("vulkan", "cuda"):
+        from rt.slang.backend import SlangBackend
+
+        return SlangBackend(name)
     raise UserError(f"unknown ray-tracing backend {name!r}; available: {', '.join(NAMES)}")

@@ -1,0 +1,153 @@
+"""The Slang backend behind rt.backend.Backend: the scene on a slangpy device (scene.py), the
+frame's primary hits traced there (shaders/rt/primary.slang), and each effect as a ray-tracing
+pipeline of its own shader file (shaders/rt/<effect>.slang). Images are device buffers until
+to_host reads them back."""
+from __future__ import annotations
+
+import numpy as np
+
+from core.errors import UserError
+from rt.backend import AUX_CHANNEL, Backend, FrameInputs
+from rt.slang.device import open_device
+from rt.slang.pipeline import Pipeline
+from rt.slang.scene import DeviceScene
+
+EFFECTS = ("ao",)  # on this backend so far; the others are traced on Embree (tracer=embree)
+
+
+def _key_words(base: np.uint64) -> tuple[int, int]:
+    b = int(base)
+    return b & 0xFFFFFFFF, b >> 32
+
+
+class Image:
+    """A (pixels, channels) float32 image in a device buffer."""
+
+    def __init__(self, buffer, pixels: int, channels: int):
+        self.buffer, self.pixels, self.channels = buffer, pixels, channels
+
+    def to_numpy(self) -> np.ndarray:
+        return self.buffer.to_numpy().view(np.float32)[: self.pixels * self.channels].reshape(self.pixels,
+                                                                                              self.channels)
+
+
+class SlangBackend(Backend):
+    def __init__(self, kind: str = "vulkan"):
+        self.name = kind
+        self.device = open_device(kind)
+        self.scene: DeviceScene | None = None
+        self.inputs: FrameInputs | None = None
+        self._pipelines: dict = {}
+        self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
+        self._counted = 0  # rays counted on the host (primary rays); the effects count theirs on the device
+        self._counter = self._buffer("rays_traced", 1, 4)
+        self._counter.copy_from_numpy(np.zeros(1, np.uint32))
+
+    accepts_gbuffer = False  # primary hits come from rays on the device: no raster G-buffer read back
+
+    @property
+    def rays_traced(self) -> int:
+        """Rays traced since creation (reads the device's counter back: waits for the device)."""
+        return self._counted + int(self._counter.to_numpy().view(np.uint32)[0])
+
+    @property
+    def adapter(self) -> str:
+        return self.device.info.adapter_name
+
+    def set_scene(self, scene) -> None:
+        self.scene = DeviceScene(self.device, scene)
+
+    def _pipeline(self, name: str, *args):
+        if name not in self._pipelines:
+            self._pipelines[name] = Pipeline(self.device, *args)
+        return self._pipelines[name]
+
+    def _buffer(self, name: str, count: int, stride: int):
+        import slangpy as spy
+
+        found = self._buffers.get(name)
+        if found is None or found[1] != (count, stride):
+            usage = spy.BufferUsage.unordered_access | spy.BufferUsage.shader_resource
+            found = self._buffers[name] = (self.device.create_buffer(element_count=max(count, 1), struct_size=stride,
+                                                                      usage=usage), (count, stride))
+        return found[0]
+
+    # -- the frame ------------------------------------------------------------------------
+    def begin_frame(self, inputs: FrameInputs) -> None:
+        """Primary hits by rays on the device (the raster G-buffer is not read: accepts_gbuffer)."""
+        self.inputs = inputs
+        self._counted += int(self._counter.to_numpy().view(np.uint32)[0])  # the last frame's, before it can wrap
+        self._counter.copy_from_numpy(np.zeros(1, np.uint32))
+        cam, w, h = inputs.camera, inputs.width, inputs.height
+        right, up, forward = (np.asarray(v, np.float32) for v in cam.basis())
+        self.gbuffer = {name: self._buffer(f"gbuffer.{name}", w * h, 16)
+                        for name in ("position", "normal", "true_normal", "albedo", "emissive", "view_dir")}
+        pipeline = self._pipeline("primary", "primary.slang", "primary_rays", ("primary_miss",), "primary_hit")
+
+        def bind(c):
+            c["g_scene"] = self.scene.tlas
+            self.scene.bind_mesh(c["g_mesh"])
+            self._bind_gbuffer(c["g_gbuffer"])
+            c["g_width"], c["g_height"] = w, h
+            c["g_eye"] = np.asarray(cam.eye, np.float32)
+            c["g_right"], c["g_up"], c["g_forward"] = right, up, forward
+            c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
+
+        pipeline.dispatch(w, h, bind)
+        self._counted += w * h
+
+    def _bind_gbuffer(self, cursor) -> None:
+        for name, buf in self.gbuffer.items():
+            cursor[name] = buf
+
+    def _environment(self, cursor) -> None:
+        from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
+
+        env = self.inputs.environment
+        kind = {"black": 0, "constant": 1, "sky": 2}[env.kind]
+        cursor["kind"] = kind
+        cursor["color"] = np.asarray(env.color if kind == 1 else (env.strength, 0, 0), np.float32)
+        cursor["horizon"], cursor["zenith"], cursor["ground"] = SKY_HORIZON, SKY_ZENITH, SKY_GROUND
+
+    def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
+        if effect not in EFFECTS:
+            raise UserError(f"{effect} is not on the {self.name} backend yet (it traces {', '.join(EFFECTS)}); "
+                            f"use --set tracer=embree")
+        return getattr(self, "_" + effect)(channels)
+
+    def _ao(self, channels) -> dict:
+        from rt.keys import key_base
+
+        inputs, opts = self.inputs, self.inputs.options
+        w, h = inputs.width, inputs.height
+        rays = int(opts.get("ao.rays_per_pixel"))
+        out = self._buffer("radiance", w * h * 3, 4)
+        aux = self._buffer("rt_ao", w * h, 4)
+        pipeline = self._pipeline("ao", "ao.slang", "ao_rays", ("shadow_miss",))
+
+        def bind(c):
+            c["g_scene"] = self.scene.tlas
+            self._bind_gbuffer(c["g_gbuffer"])
+            c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
+            self._environment(c["g_env"])
+            c["g_width"] = w
+            c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, 2)), np.uint32)
+            c["g_rays"] = rays
+            c["g_radius"] = float(opts.get("ao.radius"))
+            c["g_eps"] = float(self.scene.arrays.eps)
+            c["g_greyscale"] = int(bool(opts.get("ao.greyscale")))
+            c["g_write_aux"] = int(AUX_CHANNEL["ao"] in channels)
+
+        pipeline.dispatch(w, h, bind)
+        images = {"radiance": Image(out, w * h, 3), "rt_ao": Image(aux, w * h, 1)}
+        return {c: images[c] for c in channels}
+
+    def gbuffer_view(self, channel: str):
+        raise UserError(f"G-buffer views are not on the {self.name} backend yet; use --set tracer=embree")
+
+    def to_host(self, image) -> np.ndarray:
+        return image.to_numpy()
+
+    def close(self) -> None:
+        self.scene = None
+        self._buffers.clear()

@@ -1,0 +1,89 @@
+"""Which Slang devices this machine has, and opening one (once per process and kind)."""
+from __future__ import annotations
+
+import os
+import sys
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from core.errors import UserError
+
+SHADER_DIR = Path(__file__).resolve().parent.parent.parent / "shaders" / "rt"
+KINDS = ("vulkan", "cuda")
+SOFTWARE = ("llvmpipe", "lavapipe", "swiftshader")  # adapter names of CPU implementations
+
+_devices: dict = {}  # kind -> slangpy.Device or the error that opening it gave
+
+
+@dataclass
+class DeviceInfo:
+    kind: str  # vulkan or cuda
+    adapter: str
+    ray_tracing: bool
+    software: bool  # a CPU implementation (lavapipe): fine for tests, not for speed
+
+
+def _slangpy():
+    try:
+        import slangpy
+    except ImportError as e:
+        raise UserError(f"the Slang backends need the slangpy package ({e}); pip install slangpy==0.43.1") from None
+    # a device that cannot be opened is reported as one line of ours, not slangpy's log lines
+    slangpy.Logger.get().level = slangpy.LogLevel.fatal
+    return slangpy
+
+
+@contextmanager
+def _quiet():
+    """The C library's own lines (a missing CUDA driver prints one) kept off the terminal: the
+    caller reports the outcome in one line."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)
+
+
+def open_device(kind: str):
+    """The process's slangpy device of this kind, opened on first use; UserError if there is none."""
+    if kind not in KINDS:
+        raise UserError(f"unknown Slang device kind {kind!r}; choose one of {', '.join(KINDS)}")
+    found = _devices.get(kind)
+    if found is None:
+        spy = _slangpy()
+        try:
+            options = spy.SlangCompilerOptions({"include_paths": [str(SHADER_DIR)]})
+            device_type = spy.DeviceType.vulkan if kind == "vulkan" else spy.DeviceType.cuda
+            with _quiet():
+                found = spy.Device(type=device_type, enable_rhi_validation=False, compiler_options=options)
+            if not found.has_feature(spy.Feature.ray_tracing):
+                found = UserError(f"the {kind} device ({found.info.adapter_name}) has no ray tracing")
+        except UserError:
+            raise
+        except Exception as e:  # no driver, no GPU: slangpy raises its own RuntimeError
+            hint = (" (install Mesa's Vulkan drivers with ray tracing: mesa-vulkan-drivers from "
+                    "bookworm-backports, see scripts/setup.sh)" if kind == "vulkan" else " (needs an NVIDIA GPU)")
+            found = UserError(f"no {kind} device with ray tracing here{hint}: {str(e).splitlines()[0][:160]}")
+        _devices[kind] = found
+    if isinstance(found, UserError):
+        raise found
+    return found
+
+
+def describe(kind: str) -> DeviceInfo | None:
+    """The device of this kind, or None where there is none."""
+    try:
+        device = open_device(kind)
+    except UserError:
+        return None
+    name = device.info.adapter_name
+    return DeviceInfo(kind, name, True, any(s in name.lower() for s in SOFTWARE))

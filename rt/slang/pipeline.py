@@ -1,0 +1,27 @@
+"""A ray-tracing pipeline of one shader file (shaders/rt/), dispatched over the image."""
+from __future__ import annotations
+
+
+class Pipeline:
+    def __init__(self, device, file: str, raygen: str, misses: tuple[str, ...], closest_hit: str | None = None):
+        import slangpy as spy
+
+        entry_points = [raygen, *misses] + ([closest_hit] if closest_hit else [])
+        self.device = device
+        self.program = device.load_program(file, entry_points)
+        groups = [spy.HitGroupDesc(hit_group_name="hit", closest_hit_entry_point=closest_hit)] if closest_hit else []
+        self.pipeline = device.create_ray_tracing_pipeline(program=self.program, hit_groups=groups, max_recursion=1,
+                                                           max_ray_payload_size=32, max_attribute_size=8)
+        self.table = device.create_shader_table(program=self.program, ray_gen_entry_points=[raygen],
+                                                miss_entry_points=list(misses),
+                                                hit_group_names=["hit"] if closest_hit else [])
+
+    def dispatch(self, width: int, height: int, bind) -> None:
+        """bind(cursor) sets the shader's globals; then one ray generation per pixel."""
+        import slangpy as spy
+
+        encoder = self.device.create_command_encoder()
+        with encoder.begin_ray_tracing_pass() as rt_pass:
+            bind(spy.ShaderCursor(rt_pass.bind_pipeline(self.pipeline, self.table)))
+            rt_pass.dispatch_rays(0, [width, height, 1])
+        self.device.submit_command_buffer(encoder.finish())

@@ -1,0 +1,80 @@
+"""A scene on a Slang device: its triangles in a bottom-level acceleration structure under a
+one-instance top level, and the shading arrays (rt/mesh.py) in structured buffers."""
+from __future__ import annotations
+
+import numpy as np
+
+from core.errors import UserError
+from rt.mesh import MeshArrays
+
+
+class DeviceScene:
+    def __init__(self, device, scene):
+        import slangpy as spy
+
+        self.device, self.arrays = device, MeshArrays(scene)
+        a = self.arrays
+        if len(a.indices) == 0:
+            raise UserError(f"{scene.name}: no triangles to trace")
+        try:
+            self._upload(spy, a)
+            self._build(spy, a)
+        except RuntimeError as e:  # slangpy: out of device memory and the like
+            raise UserError(f"{scene.name}: could not build the scene on {device.info.adapter_name}: "
+                            f"{str(e).splitlines()[0][:160]}") from None
+
+    def _upload(self, spy, a: MeshArrays) -> None:
+        dev = self.device
+        build = spy.BufferUsage.shader_resource | spy.BufferUsage.acceleration_structure_build_input
+
+        def buffer(data: np.ndarray, usage=spy.BufferUsage.shader_resource):
+            return dev.create_buffer(usage=usage, data=np.ascontiguousarray(data))
+
+        self.vertices = buffer(a.positions.astype(np.float32), build)
+        self.indices = buffer(a.indices.astype(np.uint32), build)
+        self.corners = buffer(a.corners.reshape(-1, 4))  # 4 float4 a triangle (shaders/rt/common.slang)
+        self.face_normals = buffer(np.c_[a.face_normals, np.zeros(len(a.face_normals), np.float32)])
+        materials = np.zeros((len(a.base_color), 12), np.float32)  # common.slang: Material
+        materials[:, 0:3] = a.base_color
+        materials[:, 3] = np.where(a.tex_offset >= 0, 0, -1)
+        materials[:, 4:7] = a.emissive
+        materials[:, 7] = a.roughness
+        materials[:, 8], materials[:, 9], materials[:, 10] = a.tex_offset, a.tex_w, a.tex_h
+        materials[:, 11] = a.metallic
+        self.materials = buffer(materials)
+        self.texels = buffer(np.c_[a.tex_data, np.zeros(len(a.tex_data), np.float32)])
+
+    def _build(self, spy, a: MeshArrays) -> None:
+        dev = self.device
+        triangles = spy.AccelerationStructureBuildInputTriangles({
+            "vertex_buffers": [spy.BufferOffsetPair(self.vertices)], "vertex_format": spy.Format.rgb32_float,
+            "vertex_count": len(a.positions), "vertex_stride": 12,
+            "index_buffer": spy.BufferOffsetPair(self.indices), "index_format": spy.IndexFormat.uint32,
+            "index_count": a.indices.size, "flags": spy.AccelerationStructureGeometryFlags.opaque})
+        self.blas = self._structure(spy, spy.AccelerationStructureKind.bottom_level, triangles)
+        instances = dev.create_acceleration_structure_instance_list(1)
+        instances.write(0, {"transform": spy.float3x4.identity(), "instance_id": 0, "instance_mask": 0xFF,
+                            "instance_contribution_to_hit_group_index": 0,
+                            "flags": spy.AccelerationStructureInstanceFlags.none,
+                            "acceleration_structure": self.blas.handle})
+        self.tlas = self._structure(spy, spy.AccelerationStructureKind.top_level, instances.build_input_instances())
+        self._instances = instances
+
+    def _structure(self, spy, kind, build_input):
+        dev = self.device
+        desc = spy.AccelerationStructureBuildDesc({"inputs": [build_input],
+                                                   "flags": spy.AccelerationStructureBuildFlags.prefer_fast_trace})
+        sizes = dev.get_acceleration_structure_sizes(desc)
+        structure = dev.create_acceleration_structure(kind=kind, size=sizes.acceleration_structure_size)
+        scratch = dev.create_buffer(size=max(sizes.scratch_size, 4), usage=spy.BufferUsage.unordered_access)
+        encoder = dev.create_command_encoder()
+        encoder.build_acceleration_structure(desc=desc, dst=structure, src=None, scratch_buffer=scratch)
+        dev.submit_command_buffer(encoder.finish())
+        return structure
+
+    def bind_mesh(self, cursor) -> None:
+        """Point a shader's Mesh (common.slang) at this scene's buffers."""
+        cursor["corners"] = self.corners
+        cursor["face_normals"] = self.face_normals
+        cursor["materials"] = self.materials
+        cursor["texels"] = self.texels
