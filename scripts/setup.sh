@@ -23,8 +23,25 @@ if [ ${#missing[@]} -gt 0 ]; then
     fi
 fi
 
+# Vulkan with ray tracing for the Slang backends' tests (tracer=vulkan): Mesa's lavapipe from
+# Mesa 25 (Debian 12's own Mesa 22.3 has no ray tracing; bookworm-backports has 25.0.7)
+mesa=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
+if command -v apt-get >/dev/null && [ "${mesa%%.*}" != "25" ] && [ "${mesa%%.*}" != "26" ]; then
+    SUDO=""
+    [ "$(id -u)" -eq 0 ] || SUDO=sudo
+    if grep -q 'VERSION_CODENAME=bookworm' /etc/os-release 2>/dev/null; then
+        echo "setup: installing Mesa's Vulkan drivers (lavapipe, ray tracing) from bookworm-backports"
+        echo "deb http://deb.debian.org/debian bookworm-backports main" | $SUDO tee /etc/apt/sources.list.d/backports.list >/dev/null
+        $SUDO apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq -t bookworm-backports mesa-vulkan-drivers libvulkan1 >/dev/null
+    else
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq mesa-vulkan-drivers libvulkan1 >/dev/null || true
+        echo "setup: tracer=vulkan needs Mesa >= 25 (lavapipe with ray tracing) or a GPU driver" >&2
+    fi
+fi
+
 # (re)install when a package is missing or `app` resolves to another checkout
-if ! $PY -c "import sys, app, core, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, numba, matplotlib, flip_evaluator, hypothesis, pytest
+if ! $PY -c "import sys, app, core, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, numba, matplotlib, flip_evaluator, slangpy, hypothesis, pytest
 sys.exit(0 if app.__file__.startswith('$PWD/') else 1)" 2>/dev/null; then
     echo "setup: installing rtlab and its Python dependencies"
     $PY -m pip install -q --disable-pip-version-check -e '.[dev]'
