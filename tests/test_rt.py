@@ -5,6 +5,7 @@ import pytest
 from app.camera import Camera
 from app.options import Options
 from app.renderer import Renderer
+from rt.embree.shading import light_rays, one_light_rays
 from scenes.builtin import build_builtin
 from tests.scenes_for_tests import closed_box, expected_point_radiance, lit_plane, mirror_floor, parallel_planes
 
@@ -220,8 +221,8 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
     own = gb.surface.take(slice(lo, hi)).soa()
     for k in range(data.lights.count):
         a, b = scratch.rays("t.a", hi - lo, True), scratch.rays("t.b", hi - lo, True)
-        m = data.lights.rays(k, (gb.soa, lo), keys, 0, a[0], a[1], a[2], a[4], a[3])
-        assert m == data.lights.rays(k, own, keys, 0, b[0], b[1], b[2], b[4], b[3]) and m > 0
+        m = light_rays(data.lights, k, (gb.soa, lo), keys, 0, a[0], a[1], a[2], a[4], a[3])
+        assert m == light_rays(data.lights, k, own, keys, 0, b[0], b[1], b[2], b[4], b[3]) and m > 0
         for x, y in zip(a, b, strict=True):
             assert np.array_equal(x[:m], y[:m])
     a, b = scratch.rays("t.a", hi - lo), scratch.rays("t.b", hi - lo)
@@ -249,8 +250,8 @@ def test_one_light_pick_of_a_lone_sun_is_that_suns_own_rays(gl):
     n = len(gb.index)
     keys = PixelRng(0, 0, gb.index, 1).key
     a, b = scratch.rays("t.a", n, True), scratch.rays("t.b", n, True)
-    m = lights.one_rays((gb.soa, 0), keys, 5, a[0], a[1], a[2], a[4], a[3])
-    assert m == lights.rays(0, (gb.soa, 0), keys, 6, b[0], b[1], b[2], b[4], b[3]) and m > n // 2
+    m = one_light_rays(lights, (gb.soa, 0), keys, 5, a[0], a[1], a[2], a[4], a[3])
+    assert m == light_rays(lights, 0, (gb.soa, 0), keys, 6, b[0], b[1], b[2], b[4], b[3]) and m > n // 2
     for x, y in zip(a, b, strict=True):
         assert np.allclose(x[:m], y[:m], rtol=1e-6, atol=1e-7)
     r.release()
@@ -284,9 +285,9 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
             np.add.at(out[:, 0], idx[:m][~blocked], 1.0)
         return out
 
-    cases = [(lambda sc, acc, k=k: data.lights.rays(k, G, keys, 0, o, d, t, e, idx, sc, acc), True)
+    cases = [(lambda sc, acc, k=k: light_rays(data.lights, k, G, keys, 0, o, d, t, e, idx, sc, acc), True)
              for k in range(data.lights.count)]
-    cases.append((lambda sc, acc: data.lights.one_rays(G, keys, 0, o, d, t, e, idx, sc, acc), True))
+    cases.append((lambda sc, acc: one_light_rays(data.lights, G, keys, 0, o, d, t, e, idx, sc, acc), True))
     cases.append((lambda sc, acc: raygen.hemisphere_live(*G, keys, 0, data.eps, np.float32(0.7), o, d, t, idx,
                                                          rtcore.target(sc), acc), False))
     for make, light in cases:

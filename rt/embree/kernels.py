@@ -18,7 +18,7 @@ from numba.core import cgutils
 from numba.core import types as nbtypes
 from numba.extending import intrinsic
 
-from rt.embree.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
+from rt.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
 
 TWO_PI = 2.0 * math.pi
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
@@ -178,22 +178,6 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
         rough[k] = roughness[m]
         metal[k] = metallic[m]
         emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
-
-
-def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Walker's alias table: (keep probability, alias index) per slot, for O(1) sampling."""
-    n = weights.size
-    p = weights / weights.sum() * n
-    keep = np.ones(n)
-    alias = np.arange(n)
-    small = [i for i in range(n) if p[i] < 1.0]
-    large = [i for i in range(n) if p[i] >= 1.0]
-    while small and large:
-        s, g = small.pop(), large.pop()
-        keep[s], alias[s] = p[s], g
-        p[g] -= 1.0 - p[s]
-        (small if p[g] < 1.0 else large).append(g)
-    return keep, alias
 
 
 @njit(cache=True, error_model="numpy")

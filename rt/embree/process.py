@@ -6,8 +6,8 @@
 - Compiled kernels are cached per version of this backend's sources: numba checks only the
   file of the function it loads, but a kernel carries the code of the kernels it calls from
   other modules, so after an update a cache keyed by one file could run old code. The cache
-  directory is named after a hash of every source in rt/embree/ unless NUMBA_CACHE_DIR is
-  set. numba reads it when a kernel is decorated, so init() runs before the kernel modules
+  directory is named after a hash of every source in rt/embree/ (and rt/layout.py, rt/keys.py)
+  unless NUMBA_CACHE_DIR is set. numba reads it when a kernel is decorated, so init() runs before the kernel modules
   are imported (rt/backends.py, app/cli.py, tests/conftest.py).
 - Freed memory is kept for reuse (memory.py).
 - libembree4 is loaded so that compiled kernels resolve rtc* by name (rtcore.load)."""
@@ -21,11 +21,17 @@ import sys
 _done = False
 
 
+SHARED = ("layout.py", "keys.py")  # rt/ modules whose constants the kernels compile in
+
+
 def cache_dir(sources: pathlib.Path = pathlib.Path(__file__).parent) -> pathlib.Path:
-    """Where compiled kernels of these sources (every *.py in the folder) are cached."""
+    """Where compiled kernels of these sources (every *.py in the folder, and the shared rt/
+    modules beside it) are cached."""
     digest = hashlib.sha1()
-    for f in sorted(sources.glob("*.py")):
-        digest.update(f.name.encode() + b"\0" + f.read_bytes())
+    files = sorted(sources.glob("*.py")) + [sources.parent / name for name in SHARED]
+    for f in files:
+        if f.exists():
+            digest.update(f.name.encode() + b"\0" + f.read_bytes())
     base = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
     return base / "rtlab" / "numba" / digest.hexdigest()[:16]
 

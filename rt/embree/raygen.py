@@ -31,7 +31,7 @@ from numba import njit
 
 from rt.embree import rtcore as embree
 from rt.embree.kernels import pixel_key, take_next, uniform
-from rt.embree.layout import (
+from rt.layout import (
     CONE_COS,
     CONE_SCALE,
     EDGE1,

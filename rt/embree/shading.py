@@ -15,13 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.embree import kernels, layout, raygen, rtcore, scratch
+from rt.embree import kernels, raygen, rtcore, scratch
 from rt.embree.tracer import Hits, Tracer
+from rt.lights import LUMA, LightSet  # noqa: F401  (LUMA: re-exported for reference.py)
 from rt.mesh import MeshArrays
 
-LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 INV_PI = np.float32(1 / np.pi)
-KINDS = {"point": 0, "spot": 1, "directional": 2}
 
 
 @dataclass
@@ -112,109 +111,28 @@ class SceneData(MeshArrays):
         return (s.p + ng * scale).astype(np.float32)
 
 
-class LightSet:
-    """Analytic lights plus one light per emissive cluster, as flat arrays for the kernels."""
+def light_rays(lights: LightSet, k: int, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
+               acc=raygen.NOT_TRACED) -> int:
+    """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
+    (rt/embree/raygen.py), or if scene traced and what gets through added to acc; returns their
+    count."""
+    eps, far = lights.data.eps, lights.data.far
+    out = (origin, direction, tmax, e, idx, rtcore.target(scene), acc)
+    if k < lights.count_analytic:
+        return raygen.analytic_shadow_rays(k, *G, keys, dim, lights.analytic, eps, far, *out)
+    start, rows, keep, alias = lights.emitters
+    j = k - lights.count_analytic
+    return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, eps, *out)
 
-    def __init__(self, scene, data: SceneData):
-        lights = scene.lights
-        self.count_analytic = len(lights)
-        f32 = lambda a, shape: np.ascontiguousarray(np.asarray(a, np.float32).reshape(shape))  # noqa: E731
-        kind = np.array([KINDS[li.kind] for li in lights], np.int32)
-        pos = f32([li.position for li in lights], (-1, 3))
-        d = f32([li.direction for li in lights], (-1, 3))
-        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-20)
-        rad = f32([li.radiance_scale for li in lights], (-1, 3))
-        cos_out = f32(np.cos([li.outer_cone for li in lights]), (-1,))
-        cos_in = f32(np.cos([li.inner_cone for li in lights]), (-1,))
-        ang = f32([li.angular_radius for li in lights], (-1,))
-        tris, keep, alias, pmf, le, double, start = [], [], [], [], [], [], [0]
-        centre, radius, power = [], [], []
-        for group in scene.emissive_clusters():
-            e = data.emissive[data.material_ids[group]]
-            weight = data.tri_area[group].astype(np.float64) * np.maximum(e @ LUMA, 0)
-            total = weight.sum()
-            if total <= 0:
-                continue
-            tris.append(group.astype(np.int64))
-            k, a = kernels.alias_table(weight)
-            keep.append(k)
-            alias.append(a)
-            pmf.append(weight / total)
-            le.append(e)
-            double.append([scene.materials[m].double_sided for m in data.material_ids[group]])
-            start.append(start[-1] + len(group))
-            pts = data.positions[data.indices[group]].reshape(-1, 3).astype(np.float64)
-            c = pts.mean(0)
-            centre.append(c)
-            radius.append(np.linalg.norm(pts - c, axis=1).max())
-            power.append(float(total))  # luminance of sum(Le A): ~ pi x emitted power / pi
-        self.cluster_count = len(tris)
-        self.cluster_centre = f32(centre, (-1, 3))
-        self.cluster_radius = f32(radius, (-1,))
-        self.cluster_power = f32(power, (-1,))
-        self.cluster_tris = [t for t in tris]
-        self.lum = f32(rad @ LUMA, (-1,))
-        self.spot_scale = f32(1.0 / np.maximum(cos_in - cos_out, 1e-3), (-1,))
-        # one row per emitting triangle, clusters one after another: what sampling a point on it needs
-        c_tri = np.concatenate(tris) if tris else np.zeros(0, np.int64)
-        c_pmf = np.concatenate(pmf) if pmf else np.zeros(0)
-        i = data.indices[c_tri]
-        p0 = data.positions[i[:, 0]]
-        rows = np.zeros((c_tri.size, layout.LIGHT_ROW), np.float32)
-        rows[:, layout.VERTEX:layout.VERTEX + 3] = p0
-        rows[:, layout.EDGE1:layout.EDGE1 + 3] = data.positions[i[:, 1]] - p0
-        rows[:, layout.EDGE2:layout.EDGE2 + 3] = data.positions[i[:, 2]] - p0
-        rows[:, layout.FACE_NORMAL:layout.FACE_NORMAL + 3] = data.face_normals[c_tri]
-        if c_tri.size:
-            rows[:, layout.EMISSION:layout.EMISSION + 3] = np.concatenate(le) * (data.tri_area[c_tri] / c_pmf)[:, None]
-            rows[:, layout.TWO_SIDED] = np.concatenate(double)
-        self.analytic = (kind, pos, d.astype(np.float32), rad, cos_out, self.spot_scale, f32(np.cos(ang), (-1,)),
-                         self.lum)  # suns: the cosine of their angular radius
-        self.emitters = (np.asarray(start, np.int64), rows,
-                         f32(np.concatenate(keep) if keep else [], (-1,)),
-                         np.concatenate(alias).astype(np.int32) if alias else np.zeros(0, np.int32))
-        # what picking a light needs, as structure-of-arrays (rt/embree/raygen.py: _light_weights); point
-        # lights get a cone that is never cut (t = 1)
-        spot = kind == 1
-        col = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
-        self.guide = (*(col(pos[:, a]) for a in range(3)), *(col(d[:, a]) for a in range(3)), col(self.lum),
-                      col(np.where(spot, cos_out, -2.0)), col(np.where(spot, self.spot_scale, 1.0)),
-                      np.ascontiguousarray(kind == 2), *(col(self.cluster_centre[:, a]) for a in range(3)),
-                      col(self.cluster_radius), col(self.cluster_power))
-        self.data = data
 
-    def rays(self, k: int, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0, acc=raygen.NOT_TRACED) -> int:
-        """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
-        (rt/embree/raygen.py), or if scene traced and what gets through added to acc; returns their count."""
-        eps, far = self.data.eps, self.data.far
-        out = (origin, direction, tmax, e, idx, rtcore.target(scene), acc)
-        if k < self.count_analytic:
-            return raygen.analytic_shadow_rays(k, *G, keys, dim, self.analytic, eps, far, *out)
-        start, rows, keep, alias = self.emitters
-        j = k - self.count_analytic
-        return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, eps, *out)
-
-    def one_rays(self, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0, acc=raygen.NOT_TRACED) -> int:
-        """One shadow ray per point of G = (rows, first column) (Surface.soa) to a light picked
-        by its estimated contribution, packed, or if scene traced and added to acc."""
-        weights = scratch.buffer("light.w", (self.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
-        return raygen.one_light_shadow_rays(*G, keys, dim, self.analytic, self.emitters, self.guide, self.data.eps,
-                                            self.data.far, weights, origin, direction, tmax, e, idx,
-                                            rtcore.target(scene), acc)
-
-    @property
-    def kernel_args(self) -> tuple:
-        """What raygen.direct_block needs of the lights."""
-        return self.analytic, self.emitters, self.guide, self.count
-
-    @property
-    def count(self) -> int:
-        """Analytic lights, plus one per emissive cluster."""
-        return self.count_analytic + self.cluster_count
-
-    @property
-    def has_emissive(self) -> bool:
-        return self.cluster_count > 0
+def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
+                   acc=raygen.NOT_TRACED) -> int:
+    """One shadow ray per point of G = (rows, first column) (Surface.soa) to a light picked
+    by its estimated contribution, packed, or if scene traced and added to acc."""
+    weights = scratch.buffer("light.w", (lights.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
+    return raygen.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
+                                        lights.data.eps, lights.data.far, weights, origin, direction, tmax, e,
+                                        idx, rtcore.target(scene), acc)
 
 
 def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int) -> None:
@@ -243,7 +161,8 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     o, d, t, idx, e = rays
     G = s.soa("light.soa") if G is None else G
     scene = tracer.inline_scene() if shadowed else 0  # then the generator traces, adding into total
-    _gather(tracer, total, rays, data.lights.one_rays(G, rng.key, dim, o, d, t, e, idx, scene, total), shadowed, scene)
+    m = one_light_rays(data.lights, G, rng.key, dim, o, d, t, e, idx, scene, total)
+    _gather(tracer, total, rays, m, shadowed, scene)
     return total
 
 
