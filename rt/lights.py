@@ -99,6 +99,21 @@ class LightSet:
                       col(self.cluster_radius), col(self.cluster_power))
         self.data = data  # the scene's MeshArrays (rt/mesh.py)
 
+    def analytic_rows(self) -> np.ndarray:
+        """One light row (rt/layout.py) per analytic light, as the Embree backend's
+        raygen.analytic_rows makes them in its kernels."""
+        kind, pos, d, rad, cos_out, spot_scale, cos_ang, _ = self.analytic
+        rows = np.zeros((len(kind), layout.LIGHT_ROW), np.float32)
+        spot = kind == 1
+        rows[:, layout.POSITION:layout.POSITION + 3] = pos
+        rows[:, layout.TO_SUN:layout.TO_SUN + 3] = -d
+        rows[:, layout.RADIANCE:layout.RADIANCE + 3] = rad
+        rows[:, layout.CONE_COS] = np.where(spot, cos_out, -2.0)
+        rows[:, layout.CONE_SCALE] = np.where(spot, spot_scale, 1.0)
+        rows[:, layout.SUN_COS] = cos_ang
+        rows[:, layout.IS_SUN] = kind == 2
+        return rows
+
     @property
     def kernel_args(self) -> tuple:
         """What the Embree backend's raygen.direct_block needs of the lights."""

@@ -12,7 +12,7 @@ from rt.slang.device import open_device
 from rt.slang.pipeline import Pipeline
 from rt.slang.scene import DeviceScene
 
-EFFECTS = ("ao",)  # on this backend so far; the others are traced on Embree (tracer=embree)
+EFFECTS = ("ao", "shadows")  # on this backend so far; the others are traced on Embree (tracer=embree)
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
@@ -140,6 +140,32 @@ class SlangBackend(Backend):
 
         pipeline.dispatch(w, h, bind)
         images = {"radiance": Image(out, w * h, 3), "rt_ao": Image(aux, w * h, 1)}
+        return {c: images[c] for c in channels}
+
+    def _shadows(self, channels) -> dict:
+        from rt.keys import key_base
+
+        inputs, opts = self.inputs, self.inputs.options
+        w, h = inputs.width, inputs.height
+        out = self._buffer("radiance", w * h * 3, 4)
+        aux = self._buffer("rt_direct", w * h * 3, 4)
+        pipeline = self._pipeline("shadows", "shadows.slang", "shadow_rays", ("shadow_miss",))
+
+        def bind(c):
+            c["g_scene"] = self.scene.tlas
+            self._bind_gbuffer(c["g_gbuffer"])
+            self.scene.bind_lights(c["g_lights"])
+            c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
+            self._environment(c["g_env"])
+            c["g_width"] = w
+            c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, 1)), np.uint32)
+            c["g_eps"], c["g_far"] = float(self.scene.arrays.eps), float(self.scene.arrays.far)
+            c["g_one"] = int(opts.get("shadows.lights") == "one")
+            c["g_greyscale"] = int(bool(opts.get("shadows.greyscale")))
+            c["g_write_aux"] = int(AUX_CHANNEL["shadows"] in channels)
+
+        pipeline.dispatch(w, h, bind)
+        images = {"radiance": Image(out, w * h, 3), "rt_direct": Image(aux, w * h, 3)}
         return {c: images[c] for c in channels}
 
     def gbuffer_view(self, channel: str):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import UserError
+from rt.lights import LightSet
 from rt.mesh import MeshArrays
 
 
@@ -14,6 +15,7 @@ class DeviceScene:
 
         self.device, self.arrays = device, MeshArrays(scene)
         a = self.arrays
+        self.lights = LightSet(scene, a)
         if len(a.indices) == 0:
             raise UserError(f"{scene.name}: no triangles to trace")
         try:
@@ -43,6 +45,35 @@ class DeviceScene:
         materials[:, 11] = a.metallic
         self.materials = buffer(materials)
         self.texels = buffer(np.c_[a.tex_data, np.zeros(len(a.tex_data), np.float32)])
+        self._upload_lights(buffer)
+
+    def _upload_lights(self, buffer) -> None:
+        """The lights as shaders/rt/lights.slang reads them (rt/lights.py's arrays)."""
+        li = self.lights
+
+        def rows(x: np.ndarray, width: int) -> np.ndarray:  # at least one row: no empty buffers
+            x = np.asarray(x, np.float32).reshape(-1, width)
+            return x if len(x) else np.zeros((1, width), np.float32)
+
+        start, emitter_rows, keep, alias = li.emitters
+        self.light_buffers = {
+            "analytic": buffer(rows(li.analytic_rows(), 16).reshape(-1, 4)),
+            "emitters": buffer(rows(emitter_rows, 16).reshape(-1, 4)),
+            "cluster_start": buffer(np.asarray(start, np.int32) if len(start) else np.zeros(1, np.int32)),
+            "keep": buffer(keep if len(keep) else np.zeros(1, np.float32)),
+            "alias": buffer(np.asarray(alias, np.int32) if len(alias) else np.zeros(1, np.int32)),
+        }
+        kind, pos, d, _, cos_out, spot_scale, _, lum = li.analytic
+        spot = kind == 1
+        guide = np.zeros((len(kind), 12), np.float32)  # pos, lum; dir, cone cos; cone scale, sun
+        guide[:, 0:3], guide[:, 3], guide[:, 4:7] = pos, lum, d
+        guide[:, 7] = np.where(spot, cos_out, -2.0)
+        guide[:, 8] = np.where(spot, spot_scale, 1.0)
+        guide[:, 9] = kind == 2
+        clusters = np.zeros((li.cluster_count, 8), np.float32)  # centre, radius; power
+        clusters[:, 0:3], clusters[:, 3], clusters[:, 4] = li.cluster_centre, li.cluster_radius, li.cluster_power
+        self.light_buffers["guide_lights"] = buffer(rows(guide, 12).reshape(-1, 4))
+        self.light_buffers["guide_clusters"] = buffer(rows(clusters, 8).reshape(-1, 4))
 
     def _build(self, spy, a: MeshArrays) -> None:
         dev = self.device
@@ -71,6 +102,13 @@ class DeviceScene:
         encoder.build_acceleration_structure(desc=desc, dst=structure, src=None, scratch_buffer=scratch)
         dev.submit_command_buffer(encoder.finish())
         return structure
+
+    def bind_lights(self, cursor) -> None:
+        """Point a shader's Lights (lights.slang) at this scene's lights."""
+        for name, buf in self.light_buffers.items():
+            cursor[name] = buf
+        cursor["analytic_count"] = self.lights.count_analytic
+        cursor["cluster_count"] = self.lights.cluster_count
 
     def bind_mesh(self, cursor) -> None:
         """Point a shader's Mesh (common.slang) at this scene's buffers."""
