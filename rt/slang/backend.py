@@ -12,7 +12,15 @@ from rt.slang.device import open_device
 from rt.slang.pipeline import Pipeline
 from rt.slang.scene import DeviceScene
 
-EFFECTS = ("ao", "shadows")  # on this backend so far; the others are traced on Embree (tracer=embree)
+EFFECTS = ("ao", "shadows", "gi", "reflections")  # on this backend so far; the rest: tracer=embree
+# effect: its shader file, entry points (ray generation, misses, closest hit), random stream (as
+# the Embree backend's: RtFrame.key_base) and the channels of its own image
+SHADERS = {
+    "ao": ("ao.slang", "ao_rays", ("shadow_miss",), None, 2, 1),
+    "shadows": ("shadows.slang", "shadow_rays", ("shadow_miss",), None, 1, 3),
+    "gi": ("gi.slang", "gi_rays", ("hit_miss", "shadow_miss"), "closest", 4, 3),
+    "reflections": ("reflections.slang", "reflection_rays", ("hit_miss", "shadow_miss"), "closest", 3, 4),
+}
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
@@ -113,59 +121,54 @@ class SlangBackend(Backend):
         if effect not in EFFECTS:
             raise UserError(f"{effect} is not on the {self.name} backend yet (it traces {', '.join(EFFECTS)}); "
                             f"use --set tracer=embree")
-        return getattr(self, "_" + effect)(channels)
+        return self._run(effect, channels)
 
-    def _ao(self, channels) -> dict:
+    def _options(self, effect: str, opts) -> dict:
+        """The effect shader's option uniforms."""
+        if effect == "ao":
+            return {"g_rays": int(opts.get("ao.rays_per_pixel")), "g_radius": float(opts.get("ao.radius")),
+                    "g_greyscale": int(bool(opts.get("ao.greyscale")))}
+        if effect == "shadows":
+            return {"g_one": int(opts.get("shadows.lights") == "one"),
+                    "g_greyscale": int(bool(opts.get("shadows.greyscale")))}
+        if effect == "gi":
+            return {"g_rays": int(opts.get("gi.rays_per_pixel")), "g_bounces": int(opts.get("gi.bounces")),
+                    "g_shadows": int(bool(opts.get("gi.shadows")))}
+        return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
+                "g_depth": int(opts.get("reflections.max_depth")), "g_lit": int(bool(opts.get("reflections.lit")))}
+
+    def _run(self, effect: str, channels) -> dict:
+        """One effect's pipeline over the image: radiance (3 floats a pixel) and its own image."""
         from rt.keys import key_base
 
-        inputs, opts = self.inputs, self.inputs.options
+        inputs = self.inputs
         w, h = inputs.width, inputs.height
-        rays = int(opts.get("ao.rays_per_pixel"))
+        file, raygen, misses, closest, stream, aux_channels = SHADERS[effect]
+        aux_name = AUX_CHANNEL[effect]
         out = self._buffer("radiance", w * h * 3, 4)
-        aux = self._buffer("rt_ao", w * h, 4)
-        pipeline = self._pipeline("ao", "ao.slang", "ao_rays", ("shadow_miss",))
+        aux = self._buffer(aux_name, w * h * aux_channels, 4)
+        pipeline = self._pipeline(effect, file, raygen, misses, closest)
+        values = self._options(effect, inputs.options)
 
         def bind(c):
             c["g_scene"] = self.scene.tlas
             self._bind_gbuffer(c["g_gbuffer"])
+            if closest:
+                self.scene.bind_mesh(c["g_mesh"])
+            if effect != "ao":
+                self.scene.bind_lights(c["g_lights"])
+                c["g_far"] = float(self.scene.arrays.far)
             c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
             self._environment(c["g_env"])
             c["g_width"] = w
-            c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, 2)), np.uint32)
-            c["g_rays"] = rays
-            c["g_radius"] = float(opts.get("ao.radius"))
+            c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, stream)), np.uint32)
             c["g_eps"] = float(self.scene.arrays.eps)
-            c["g_greyscale"] = int(bool(opts.get("ao.greyscale")))
-            c["g_write_aux"] = int(AUX_CHANNEL["ao"] in channels)
+            c["g_write_aux"] = int(aux_name in channels)
+            for name, value in values.items():
+                c[name] = value
 
         pipeline.dispatch(w, h, bind)
-        images = {"radiance": Image(out, w * h, 3), "rt_ao": Image(aux, w * h, 1)}
-        return {c: images[c] for c in channels}
-
-    def _shadows(self, channels) -> dict:
-        from rt.keys import key_base
-
-        inputs, opts = self.inputs, self.inputs.options
-        w, h = inputs.width, inputs.height
-        out = self._buffer("radiance", w * h * 3, 4)
-        aux = self._buffer("rt_direct", w * h * 3, 4)
-        pipeline = self._pipeline("shadows", "shadows.slang", "shadow_rays", ("shadow_miss",))
-
-        def bind(c):
-            c["g_scene"] = self.scene.tlas
-            self._bind_gbuffer(c["g_gbuffer"])
-            self.scene.bind_lights(c["g_lights"])
-            c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
-            self._environment(c["g_env"])
-            c["g_width"] = w
-            c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, 1)), np.uint32)
-            c["g_eps"], c["g_far"] = float(self.scene.arrays.eps), float(self.scene.arrays.far)
-            c["g_one"] = int(opts.get("shadows.lights") == "one")
-            c["g_greyscale"] = int(bool(opts.get("shadows.greyscale")))
-            c["g_write_aux"] = int(AUX_CHANNEL["shadows"] in channels)
-
-        pipeline.dispatch(w, h, bind)
-        images = {"radiance": Image(out, w * h, 3), "rt_direct": Image(aux, w * h, 3)}
+        images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 
     def gbuffer_view(self, channel: str):
