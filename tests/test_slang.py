@@ -47,6 +47,8 @@ def test_ao_between_parallel_planes_on_vulkan(gl, vulkan):
     ("gi", "arcade", ()), ("gi", "cafe", ("gi.bounces=2",)),
     ("gi", "street", ("gi.shadows=false", "gi.rays_per_pixel=2")),
     ("reflections", "temple", ("reflections.max_depth=3",)), ("reflections", "street", ("reflections.lit=false",)),
+    ("reference", "cafe", ()), ("reference", "temple", ("reference.max_bounces=3", "reference.rr_start=1")),
+    ("normal", "temple", ()), ("depth", "street", ()), ("albedo", "temple", ()),
 ])
 def test_effects_match_embree_on_the_same_numbers(gl, vulkan, pass_name, name, sets):
     """Both backends draw the same random numbers (rt/keys.py, shaders/rt/common.slang) from the
@@ -129,8 +131,12 @@ def test_cli_devices_and_errors(vulkan, tmp_path):
     doc = json.loads(r.stdout)
     names = {b["name"]: b for b in doc["backends"]}
     assert names["embree"]["available"] and names["vulkan"]["available"] and doc["auto"] in names
-    for args, needle in ((["--set", "tracer=bogus"], "tracer"),
-                         (["--pass", "reference", "--set", "tracer=vulkan"], "tracer=embree")):
+    from rt.slang.device import describe
+
+    bad = [(["--set", "tracer=bogus"], "tracer")]
+    if describe("cuda") is None:
+        bad.append((["--pass", "ao", "--set", "tracer=cuda"], "cuda"))
+    for args, needle in bad:
         r = rtlab("shot", "arcade", "--size", "32x18", "--out", str(tmp_path / "x.png"), *args)
         assert r.returncode == 2 and needle in r.stderr and "Traceback" not in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -12,7 +12,7 @@ from rt.slang.device import open_device
 from rt.slang.pipeline import Pipeline
 from rt.slang.scene import DeviceScene
 
-EFFECTS = ("ao", "shadows", "gi", "reflections")  # on this backend so far; the rest: tracer=embree
+EFFECTS = ("ao", "shadows", "gi", "reflections", "reference")
 # effect: its shader file, entry points (ray generation, misses, closest hit), random stream (as
 # the Embree backend's: RtFrame.key_base) and the channels of its own image
 SHADERS = {
@@ -20,6 +20,7 @@ SHADERS = {
     "shadows": ("shadows.slang", "shadow_rays", ("shadow_miss",), None, 1, 3),
     "gi": ("gi.slang", "gi_rays", ("hit_miss", "shadow_miss"), "closest", 4, 3),
     "reflections": ("reflections.slang", "reflection_rays", ("hit_miss", "shadow_miss"), "closest", 3, 4),
+    "reference": ("reference.slang", "reference_rays", ("hit_miss", "shadow_miss"), "closest", 5, 1),
 }
 
 
@@ -134,6 +135,10 @@ class SlangBackend(Backend):
         if effect == "gi":
             return {"g_rays": int(opts.get("gi.rays_per_pixel")), "g_bounces": int(opts.get("gi.bounces")),
                     "g_shadows": int(bool(opts.get("gi.shadows")))}
+        if effect == "reference":
+            return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
+                    "g_max_bounces": int(opts.get("reference.max_bounces")),
+                    "g_rr_start": int(opts.get("reference.rr_start"))}
         return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
                 "g_depth": int(opts.get("reflections.max_depth")), "g_lit": int(bool(opts.get("reflections.lit")))}
 
@@ -144,7 +149,7 @@ class SlangBackend(Backend):
         inputs = self.inputs
         w, h = inputs.width, inputs.height
         file, raygen, misses, closest, stream, aux_channels = SHADERS[effect]
-        aux_name = AUX_CHANNEL[effect]
+        aux_name = AUX_CHANNEL.get(effect, "unused")
         out = self._buffer("radiance", w * h * 3, 4)
         aux = self._buffer(aux_name, w * h * aux_channels, 4)
         pipeline = self._pipeline(effect, file, raygen, misses, closest)
@@ -171,11 +176,29 @@ class SlangBackend(Backend):
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 
-    def gbuffer_view(self, channel: str):
-        raise UserError(f"G-buffer views are not on the {self.name} backend yet; use --set tracer=embree")
+    def gbuffer_view(self, channel: str) -> np.ndarray:
+        """A G-buffer channel of the device's primary hits, read back (a debugging view: one
+        transfer a frame is fine); uncovered pixels 0, as on Embree."""
+        inputs = self.inputs
+        n = inputs.width * inputs.height
+        read = {name: buf.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4) for name, buf in self.gbuffer.items()}
+        covered = read["position"][:, 3] > 0
+        values = {"albedo": read["albedo"][:, :3], "normal": read["normal"][:, :3], "position": read["position"][:, :3],
+                  "roughness": read["normal"][:, 3:4], "emissive": read["emissive"][:, :3],
+                  "depth": read["albedo"][:, 3:4]}
+        if channel == "motion":
+            aspect = inputs.width / max(inputs.height, 1)
+            prev = inputs.prev_camera
+            clip = np.c_[read["position"][:, :3], np.ones(n)] @ (prev.projection_matrix(aspect) @ prev.view_matrix()).T
+            ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
+            y, x = np.divmod(np.arange(n), inputs.width)
+            now = np.stack([x + 0.5, inputs.height - (y + 0.5)], 1)
+            values["motion"] = np.c_[now - (ndc * 0.5 + 0.5) * [inputs.width, inputs.height], np.zeros(n)]
+        v = np.broadcast_to(values[channel], (n, 3)) if values[channel].shape[1] == 1 else values[channel]
+        return np.where(covered[:, None], v, 0.0).astype(np.float32)
 
     def to_host(self, image) -> np.ndarray:
-        return image.to_numpy()
+        return image if isinstance(image, np.ndarray) else image.to_numpy()
 
     def close(self) -> None:
         self.scene = None
