@@ -102,10 +102,11 @@ def stats(ms: list[float]) -> dict:
 
 
 def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warmup: int, frames: int | None,
-                seconds: float | None) -> dict:
+                seconds: float | None, base: tuple = ()) -> dict:
+    """base: options set for every configuration (bench --set, e.g. tracer=vulkan)."""
     pass_name, sets = config_options(config)
     opts = Options()
-    opts.apply(sets)
+    opts.apply(list(base) + sets)
     renderer.options = opts
     renderer.reset()
     for _ in range(warmup):
@@ -138,9 +139,9 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
 
 
 def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int,
-                 seed: int = 0) -> np.ndarray:
+                 seed: int = 0, base: tuple = ()) -> np.ndarray:
     opts = Options()
-    opts.apply(sets + ["accumulate=true"])
+    opts.apply(list(base) + sets + ["accumulate=true"])
     renderer.options = opts
     renderer.seed = seed
     renderer.reset()
@@ -169,6 +170,8 @@ def run_bench(args) -> int:
         (out / "images").mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise UserError(f"cannot create {out}: {e.strerror}") from None
+    common = tuple(args.set or ())  # options for every configuration
+    Options().apply(list(common))  # a bad option fails before measuring
     loaded = [(spec, load_scene(spec)) for spec in scenes]  # fail on a bad scene before measuring
     ctx = create_headless_context()
     timed_configs = [c for c in configs]
@@ -179,15 +182,19 @@ def run_bench(args) -> int:
     for _spec, scene in loaded:
         camera = parse_camera(args.camera, scene) if args.camera else Camera.from_view(scene.default_view(),
                                                                                         scene.diagonal)
-        renderer = Renderer(ctx, scene)
+        options = Options()
+        options.apply(list(common))
+        renderer = Renderer(ctx, scene, options)
         t0 = time.perf_counter()
-        renderer.ray_tracing()
+        backend = renderer.ray_tracing()
         build_s = time.perf_counter() - t0
-        scene_info[scene.name] = {**scene.stats(), "bvh_build_s": build_s, "camera": camera.to_string()}
+        tracer = {"name": backend.name, "device": getattr(backend, "adapter", "CPU")}
+        scene_info[scene.name] = {**scene.stats(), "bvh_build_s": build_s, "camera": camera.to_string(),
+                                  "tracer": tracer}
         rows = []
         for config in timed_configs:
-            row = time_config(ctx, renderer, camera, size, config, warmup, frames, seconds)
-            row["scene"] = scene.name
+            row = time_config(ctx, renderer, camera, size, config, warmup, frames, seconds, common)
+            row["scene"], row["tracer"] = scene.name, tracer["name"]
             rows.append(row)
             progress.update(1, f"{scene.name} {config}: {row['frame_ms']['mean']:.1f} ms")
         base = next(r for r in rows if r["config"] == "forward")["frame_ms"]["mean"]
@@ -195,7 +202,7 @@ def run_bench(args) -> int:
             r["relative_cost"] = r["frame_ms"]["mean"] / base
         if quality_configs:
             measure_quality(renderer, camera, quality_size, scene.name, rows, quality_configs, ref_frames,
-                            acc_frames, out / "images", progress)
+                            acc_frames, out / "images", progress, common)
         renderer.release()
         results += rows
     from app.recommend import recommend
@@ -203,7 +210,9 @@ def run_bench(args) -> int:
     doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"),
            "settings": {"size": list(size), "frames": frames, "seconds": None if frames else seconds, "warmup": warmup,
                         "quality_size": list(quality_size), "reference_frames": ref_frames,
-                        "quality_frames": acc_frames, "quality": bool(quality_configs), "budget_ms": args.budget_ms},
+                        "quality_frames": acc_frames, "quality": bool(quality_configs), "budget_ms": args.budget_ms,
+                        "options": list(common)},
+           "tracer": tracer,
            "scenes": scene_info, "results": results,
            "recommendations": {s: recommend([r for r in results if r["scene"] == s], args.budget_ms)
                                for s in scene_info} if quality_configs else {}}
@@ -215,13 +224,14 @@ def run_bench(args) -> int:
     return 0
 
 
-def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frames, acc_frames, images, progress):
-    ref = render_image(renderer, camera, size, "reference", [], ref_frames, seed=1)
+def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frames, acc_frames, images, progress,
+                    base: tuple = ()):
+    ref = render_image(renderer, camera, size, "reference", [], ref_frames, seed=1, base=base)
     write_png(images / f"{scene_name}_reference.png", ref)
     progress.update(2, f"{scene_name} reference ({ref_frames} frames)")
     from app.quality import mean_flip, psnr
 
-    fwd = render_image(renderer, camera, size, "forward", [], 1)
+    fwd = render_image(renderer, camera, size, "forward", [], 1, base=base)
     write_png(images / f"{scene_name}_forward.png", fwd)
     flip_fwd = mean_flip(ref, fwd)
     progress.update(2, f"{scene_name} forward quality")
@@ -234,8 +244,8 @@ def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frame
             progress.update(1, f"{scene_name} forward")
             continue
         sets = quality_options(config)
-        single = render_image(renderer, camera, size, "hybrid", sets, 1)
-        acc = render_image(renderer, camera, size, "hybrid", sets, acc_frames)
+        single = render_image(renderer, camera, size, "hybrid", sets, 1, base=base)
+        acc = render_image(renderer, camera, size, "hybrid", sets, acc_frames, base=base)
         write_png(images / f"{scene_name}_{config}.png", acc)
         q = {"flip_single": mean_flip(ref, single), "flip_accumulated": mean_flip(ref, acc),
              "psnr_single": psnr(ref, single), "psnr_accumulated": psnr(ref, acc)}

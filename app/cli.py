@@ -58,6 +58,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--quality-frames", type=int, help="accumulated frames for the bias measurement (default 32)")
     s.add_argument("--no-quality", action="store_true", help="time only (no reference, FLIP, PSNR)")
     s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="option for every configuration, e.g. tracer=vulkan (repeatable)")
     s.add_argument("--out", default="bench", help="output folder (default ./bench)")
     s.add_argument("--quick", action="store_true", help="small smoke run: 160x90, 2 frames, small reference")
     s.add_argument("--perf", action="store_true", help="ray-tracing efficiency, thread scaling, transfers, BVH builds")

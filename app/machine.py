@@ -36,6 +36,9 @@ def machine_info(ctx=None) -> dict:
     return info
 
 
-def machine_label(info: dict) -> str:
+def machine_label(info: dict, tracer: dict | None = None) -> str:
+    """The machine in one line; with the ray-tracing backend a bench ran on (Embree on the CPU
+    when a results file predates the option)."""
     gl = info.get("gl_renderer") or "?"
-    return f"{info.get('cpu', '?')}, {info.get('cores', '?')} cores, GL: {gl}"
+    rt = f", ray tracing: {tracer['name']} ({tracer['device']})" if tracer else ""
+    return f"{info.get('cpu', '?')}, {info.get('cores', '?')} cores, GL: {gl}{rt}"

@@ -180,6 +180,8 @@ class Renderer:
         rays0 = backend.rays_traced
         self._run(job, job.traced)
         self.profiler.count("rays", backend.rays_traced - rays0)
+        for name, ms in backend.gpu_ms.items():  # a GPU backend's own timestamps
+            self.profiler.record(f"{name}_gpu", ms, "gpu")
 
     def finish(self, job: Job) -> Frame:
         """Uploads of what the backend made for GL passes, then the rest: accumulation, display."""
@@ -188,7 +190,9 @@ class Renderer:
             made = {c for n in job.traced for c in self.passes[n].writes}
             read = {c for n in job.gl_after for c in self.passes[n].reads}
             for name in made & read & set(frame.channels):
-                frame.channels[name] = self._upload(frame, name, frame.backend.to_host(frame.channels[name]))
+                with self.profiler.cpu("device_readback"):  # nothing to move for Embree's numpy images
+                    image = frame.backend.to_host(frame.channels[name])
+                frame.channels[name] = self._upload(frame, name, image)
         self._run(job, job.gl_after)
         self.prev_camera = frame.camera.copy()
         self.frame = frame

@@ -105,7 +105,7 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
     import matplotlib.pyplot as plt
 
     idx, scenes = _index(doc), list(doc["scenes"])
-    label = machine_label(doc["machine"])
+    label = machine_label(doc["machine"], doc.get("tracer"))
     w, h = doc["settings"]["size"]
     plots = []
     configs = ["forward"] + [c for _, c in TECHNIQUES]
@@ -193,7 +193,7 @@ def gallery(doc: dict, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
 
 def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> None:
     budget_ms = budget_ms if budget_ms is not None else doc["settings"].get("budget_ms")
-    label = machine_label(doc["machine"])
+    label = machine_label(doc["machine"], doc.get("tracer"))
     s = doc["settings"]
     when = f"{s['frames']} frames" if s.get("frames") else f"{s.get('seconds')} s"
     md = ["# rtlab benchmark report", "",

@@ -50,6 +50,8 @@ class Backend:
         channels ("radiance" and/or the effect's AUX_CHANNEL) as device images."""
         raise NotImplementedError
 
+    gpu_ms: dict = {}  # a device backend's GPU time per dispatch of the current frame (ms), by name
+
     def gbuffer_view(self, channel: str) -> object:
         """A G-buffer channel (albedo, normal, position, depth, roughness, emissive, motion) of
         the current frame's primary hits, as a 3-channel device image."""

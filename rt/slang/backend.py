@@ -49,6 +49,7 @@ class SlangBackend(Backend):
         self._pipelines: dict = {}
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
         self._counted = 0  # rays counted on the host (primary rays); the effects count theirs on the device
+        self.gpu_ms: dict = {}  # the current frame's dispatches: name -> GPU time (ms)
         self._counter = self._buffer("rays_traced", 1, 4)
         self._counter.copy_from_numpy(np.zeros(1, np.uint32))
 
@@ -102,7 +103,7 @@ class SlangBackend(Backend):
             c["g_right"], c["g_up"], c["g_forward"] = right, up, forward
             c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
 
-        pipeline.dispatch(w, h, bind)
+        self.gpu_ms = {"primary": pipeline.dispatch(w, h, bind)}
         self._counted += w * h
 
     def _bind_gbuffer(self, cursor) -> None:
@@ -172,7 +173,7 @@ class SlangBackend(Backend):
             for name, value in values.items():
                 c[name] = value
 
-        pipeline.dispatch(w, h, bind)
+        self.gpu_ms[effect] = pipeline.dispatch(w, h, bind)
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 

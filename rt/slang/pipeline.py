@@ -21,16 +21,23 @@ class Pipeline:
         groups = [spy.HitGroupDesc(hit_group_name="hit", closest_hit_entry_point=closest_hit)] if closest_hit else []
         self.pipeline = device.create_ray_tracing_pipeline(program=self.program, hit_groups=groups, max_recursion=1,
                                                            max_ray_payload_size=32, max_attribute_size=8)
+        self.timer = device.create_query_pool(type=spy.QueryType.timestamp, count=2)
         self.table = device.create_shader_table(program=self.program, ray_gen_entry_points=[raygen],
                                                 miss_entry_points=list(misses),
                                                 hit_group_names=["hit"] if closest_hit else [])
 
-    def dispatch(self, width: int, height: int, bind) -> None:
-        """bind(cursor) sets the shader's globals; then one ray generation per pixel."""
+    def dispatch(self, width: int, height: int, bind) -> float:
+        """bind(cursor) sets the shader's globals; then one ray generation per pixel. Returns the
+        dispatch's GPU time in ms (timestamp queries: waits for the device)."""
         import slangpy as spy
 
+        self.timer.reset()
         encoder = self.device.create_command_encoder()
+        encoder.write_timestamp(self.timer, 0)
         with encoder.begin_ray_tracing_pass() as rt_pass:
             bind(spy.ShaderCursor(rt_pass.bind_pipeline(self.pipeline, self.table)))
             rt_pass.dispatch_rays(0, [width, height, 1])
+        encoder.write_timestamp(self.timer, 1)
         self.device.submit_command_buffer(encoder.finish())
+        t0, t1 = self.timer.get_timestamp_results(0, 2)
+        return (t1 - t0) * 1e3
