@@ -39,5 +39,6 @@ class Pipeline:
             rt_pass.dispatch_rays(0, [width, height, 1])
         encoder.write_timestamp(self.timer, 1)
         self.device.submit_command_buffer(encoder.finish())
+        self.device.wait()  # the timestamps are read once the work is done (Vulkan does not wait for them)
         t0, t1 = self.timer.get_timestamp_results(0, 2)
         return (t1 - t0) * 1e3

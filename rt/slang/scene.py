@@ -21,6 +21,7 @@ class DeviceScene:
         try:
             self._upload(spy, a)
             self._build(spy, a)
+            device.wait()  # built (and any device error raised) before the first frame
         except RuntimeError as e:  # slangpy: out of device memory and the like
             raise UserError(f"{scene.name}: could not build the scene on {device.info.adapter_name}: "
                             f"{str(e).splitlines()[0][:160]}") from None
