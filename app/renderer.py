@@ -15,7 +15,7 @@ from app.profiler import Profiler
 from app.raster.channel_view import CHANNEL_VIEWS
 from app.raster.gpu_scene import GpuScene
 from app.raster.upload import Uploads, read_rgba
-from core.errors import UserError
+from core.errors import DeviceError, UserError
 from scenes.model import Environment
 
 
@@ -178,7 +178,11 @@ class Renderer:
             return
         backend = job.frame.backend
         rays0 = backend.rays_traced
-        self._run(job, job.traced)
+        try:
+            self._run(job, job.traced)
+        except DeviceError:
+            self.options.set("tracer", "embree")  # the next frame (ray_tracing) builds Embree's
+            raise
         self.profiler.count("rays", backend.rays_traced - rays0)
         for name, ms in backend.gpu_ms.items():  # a GPU backend's own timestamps
             self.profiler.record(f"{name}_gpu", ms, "gpu")
@@ -191,7 +195,11 @@ class Renderer:
             read = {c for n in job.gl_after for c in self.passes[n].reads}
             for name in made & read & set(frame.channels):
                 with self.profiler.cpu("device_readback"):  # nothing to move for Embree's numpy images
-                    image = frame.backend.to_host(frame.channels[name])
+                    try:
+                        image = frame.backend.to_host(frame.channels[name])
+                    except DeviceError:
+                        self.options.set("tracer", "embree")
+                        raise
                 frame.channels[name] = self._upload(frame, name, image)
         self._run(job, job.gl_after)
         self.prev_camera = frame.camera.copy()

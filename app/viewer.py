@@ -305,6 +305,12 @@ def run_viewer(args) -> int:
         raise UserError(NO_DISPLAY.format(scene=scene))
     if args.screenshot and not args.exit_after:
         args.exit_after = 1
+    from rt.backends import resolve
+
+    gpu = resolve("auto")
+    if gpu != "embree" and not any(s.strip().startswith("tracer=") for s in (args.set or [])):
+        print(f"rtlab: this machine has a GPU with ray tracing: --set tracer={gpu} (or the panel's tracer) "
+              f"traces on it", flush=True)
     viewer = Viewer(args)
     try:
         return viewer.run(args.exit_after, args.screenshot)

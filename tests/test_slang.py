@@ -143,3 +143,26 @@ def test_cli_devices_and_errors(vulkan, tmp_path):
     r = rtlab("shot", "arcade", "--pass", "ao", "--set", "tracer=vulkan", "--size", "32x18", "--out",
               str(tmp_path / "ao.png"))
     assert r.returncode == 0 and (tmp_path / "ao.png").stat().st_size > 0, r.stderr
+
+
+def test_a_failing_device_falls_back_to_embree(gl, vulkan, monkeypatch):
+    """A device error mid-frame (lost device, out of memory) is one user error, and the next
+    frame traces on Embree."""
+    from core.errors import DeviceError
+    from rt.slang.pipeline import Pipeline
+
+    scene = build_builtin("arcade")
+    r = make(gl, scene, ("tracer=vulkan",))
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    r.render(cam, 48, 27, "ao")
+
+    def lost(self, *args):
+        raise RuntimeError("VK_ERROR_DEVICE_LOST")
+
+    monkeypatch.setattr(Pipeline, "dispatch", lost)
+    with pytest.raises(DeviceError, match="device failed"):
+        r.render(cam, 48, 27, "ao")
+    assert r.options.get("tracer") == "embree"
+    r.render(cam, 48, 27, "ao")
+    assert r.ray_tracing().name == "embree" and r.read_linear().std() > 0.01
+    r.release()

@@ -4,9 +4,11 @@ pipeline of its own shader file (shaders/rt/<effect>.slang). Images are device b
 to_host reads them back."""
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-from core.errors import UserError
+from core.errors import DeviceError, UserError
 from rt.backend import AUX_CHANNEL, Backend, FrameInputs
 from rt.slang.device import open_device
 from rt.slang.pipeline import Pipeline
@@ -27,6 +29,20 @@ SHADERS = {
 def _key_words(base: np.uint64) -> tuple[int, int]:
     b = int(base)
     return b & 0xFFFFFFFF, b >> 32
+
+
+def _device_errors(method):
+    """slangpy's RuntimeErrors (a lost device, out of memory) as one line for the user."""
+
+    @functools.wraps(method)
+    def call(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except RuntimeError as e:
+            raise DeviceError(f"the {self.name} device failed ({str(e).splitlines()[0][:160]}); "
+                              f"ray tracing goes back to embree") from None
+
+    return call
 
 
 class Image:
@@ -83,6 +99,7 @@ class SlangBackend(Backend):
         return found[0]
 
     # -- the frame ------------------------------------------------------------------------
+    @_device_errors
     def begin_frame(self, inputs: FrameInputs) -> None:
         """Primary hits by rays on the device (the raster G-buffer is not read: accepts_gbuffer)."""
         self.inputs = inputs
@@ -119,6 +136,7 @@ class SlangBackend(Backend):
         cursor["color"] = np.asarray(env.color if kind == 1 else (env.strength, 0, 0), np.float32)
         cursor["horizon"], cursor["zenith"], cursor["ground"] = SKY_HORIZON, SKY_ZENITH, SKY_GROUND
 
+    @_device_errors
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
         if effect not in EFFECTS:
             raise UserError(f"{effect} is not on the {self.name} backend yet (it traces {', '.join(EFFECTS)}); "
@@ -177,6 +195,7 @@ class SlangBackend(Backend):
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 
+    @_device_errors
     def gbuffer_view(self, channel: str) -> np.ndarray:
         """A G-buffer channel of the device's primary hits, read back (a debugging view: one
         transfer a frame is fine); uncovered pixels 0, as on Embree."""
@@ -198,6 +217,7 @@ class SlangBackend(Backend):
         v = np.broadcast_to(values[channel], (n, 3)) if values[channel].shape[1] == 1 else values[channel]
         return np.where(covered[:, None], v, 0.0).astype(np.float32)
 
+    @_device_errors
     def to_host(self, image) -> np.ndarray:
         return image if isinstance(image, np.ndarray) else image.to_numpy()
 
