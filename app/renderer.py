@@ -30,6 +30,8 @@ class Job:
     traced: list  # passes run in compute() on the backend (any thread)
     gl_after: list  # passes run in finish() (GL thread), the tail included
     wanted: dict  # pass -> the channels the rest of the graph reads from it
+    present: bool = False  # the backend accumulates and tone-maps on its device (the GL tail does not run)
+    presented: tuple | None = None  # (running mean on the device, 8-bit image, accumulation count)
 
     @property
     def cpu(self) -> bool:
@@ -169,6 +171,10 @@ class Renderer:
                       self.profiler, self.environment(), self.accumulation.count, self.seed, pass_name, backend)
         job = Job(frame, state, pass_name, names[:first], names[first:last], names[last:],
                   wiring(self.passes, names, self.pass_outputs))
+        # a device backend's own image ends the frame there: only 8 bits a channel come back
+        if (backend is not None and hasattr(backend, "present") and job.gl_after == ["accumulation", "display"]
+                and pass_name not in CHANNEL_VIEWS):
+            job.present, job.gl_after = True, []
         self._run(job, job.gl_before)
         return job
 
@@ -180,6 +186,9 @@ class Renderer:
         rays0 = backend.rays_traced
         try:
             self._run(job, job.traced)
+            if job.present:
+                with self.profiler.cpu("present"):
+                    job.presented = self._present(job)
         except DeviceError:
             self.options.set("tracer", "embree")  # the next frame (ray_tracing) builds Embree's
             raise
@@ -187,9 +196,29 @@ class Renderer:
         for name, ms in backend.gpu_ms.items():  # a GPU backend's own timestamps
             self.profiler.record(f"{name}_gpu", ms, "gpu")
 
+    def _present(self, job: Job) -> tuple:
+        """Accumulation and display on the backend's device, as AccumulationPass and DisplayPass
+        do them in GL: the running mean (restarted, extended, or kept once max_frames is
+        reached), then exposure, ACES and sRGB."""
+        frame, count = job.frame, self.accumulation.count
+        max_frames = int(self.options.get("max_frames"))
+        if not self.options.get("accumulate"):
+            weight, count = 1.0, 0
+        elif max_frames and count >= max_frames:
+            weight = 0.0
+        else:
+            weight, count = 1.0 / (count + 1), count + 1
+        mean, image = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")))
+        return mean, image, count
+
     def finish(self, job: Job) -> Frame:
         """Uploads of what the backend made for GL passes, then the rest: accumulation, display."""
         frame = job.frame
+        if job.presented is not None:
+            mean, image, self.accumulation.count = job.presented
+            frame.channels["accumulated"] = mean
+            with self.profiler.cpu("upload"):
+                frame.channels["display"] = self.uploads.upload_rgba8("display", image)
         if job.traced:
             made = {c for n in job.traced for c in self.passes[n].writes}
             read = {c for n in job.gl_after for c in self.passes[n].reads}
@@ -224,7 +253,11 @@ class Renderer:
         return np.ascontiguousarray(data[::-1, :, :3])
 
     def read_linear(self) -> np.ndarray:
-        return np.ascontiguousarray(read_rgba(self.frame.channels["accumulated"])[..., :3])
+        acc = self.frame.channels["accumulated"]
+        if self.frame.backend is not None and not hasattr(acc, "read"):  # the running mean on the device
+            h, w = self.frame.height, self.frame.width
+            return np.ascontiguousarray(self.frame.backend.to_host(acc).reshape(h, w, 4)[..., :3])
+        return np.ascontiguousarray(read_rgba(acc)[..., :3])
 
     def release(self) -> None:
         for p in self.passes.values():

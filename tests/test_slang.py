@@ -166,3 +166,25 @@ def test_a_failing_device_falls_back_to_embree(gl, vulkan, monkeypatch):
     r.render(cam, 48, 27, "ao")
     assert r.ray_tracing().name == "embree" and r.read_linear().std() > 0.01
     r.release()
+
+
+@pytest.mark.parametrize("sets", [(), ("max_frames=2",), ("accumulate=false",), ("exposure=3",)])
+def test_frame_ends_on_the_device_as_in_gl(gl, vulkan, sets):
+    """With a device backend the running mean and the tone mapping run on the device and only
+    the 8-bit image comes back (Renderer._present); the mean, the max_frames stop and the
+    display are GL's (accumulate.frag, tonemap.frag)."""
+    scene = build_builtin("street")
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    out = {}
+    for tracer in ("embree", "vulkan"):
+        r = make(gl, scene, ("gbuffer=rt", f"tracer={tracer}", "gi.rays_per_pixel=1") + sets)
+        for _ in range(3):
+            r.render(cam, 96, 54, "gi")
+        on_device = not hasattr(r.frame.channels["accumulated"], "read")
+        out[tracer] = (r.read_linear(), r.read_display().astype(int), r.frame_count, on_device)
+        r.release()
+    (lin_e, disp_e, n_e, dev_e), (lin_v, disp_v, n_v, dev_v) = out["embree"], out["vulkan"]
+    assert dev_v and not dev_e and n_e == n_v == {"max_frames=2": 2, "accumulate=false": 0}.get(
+        (sets or ("",))[0], 3)
+    assert np.mean(np.abs(lin_e - lin_v) > 1e-3 * np.maximum(lin_e, 1e-2)) < 0.01
+    assert np.mean(np.abs(disp_e - disp_v) > 1) < 0.01

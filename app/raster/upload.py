@@ -37,6 +37,16 @@ class Uploads:
         tex.write(buf)
         return tex
 
+    def upload_rgba8(self, name: str, image: np.ndarray):
+        """image: H x W x 4 uint8, rows bottom-up as GL stores them; returns the texture."""
+        h, w = image.shape[:2]
+        t = self.targets.get(name)
+        if t is None:
+            t = self.targets[name] = Targets(self.ctx, {"c": (4, "f1")})
+        tex = t.ensure(w, h)["c"]
+        tex.write(np.ascontiguousarray(image))
+        return tex
+
     def release(self) -> None:
         for t in self.targets.values():
             t.release()

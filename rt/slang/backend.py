@@ -196,6 +196,28 @@ class SlangBackend(Backend):
         return {c: images[c] for c in channels}
 
     @_device_errors
+    def present(self, radiance, weight: float, exposure: float) -> tuple:
+        """The end of the frame on the device: the running mean of radiance (weight: 1 / (frames
+        so far + 1), 1 restarts it, 0 keeps it) and its tone-mapped 8-bit RGBA (rows bottom-up,
+        as GL stores a texture). Returns (the mean, a device image; the 8-bit image, on the host):
+        only the 8-bit image leaves the device."""
+        inputs = self.inputs
+        w, h = inputs.width, inputs.height
+        mean = self._buffer("accumulated", w * h, 16)
+        display = self._buffer("display", w * h, 4)
+        if "present" not in self._pipelines:
+            self._pipelines["present"] = self.device.create_compute_kernel(
+                self.device.load_program("present.slang", ["present"]))
+        encoder = self.device.create_command_encoder()
+        self._pipelines["present"].dispatch(
+            thread_count=[w, h, 1], command_encoder=encoder,
+            vars={"g_radiance": radiance.buffer, "g_accumulated": mean, "g_display": display, "g_width": w,
+                  "g_height": h, "g_weight": float(weight), "g_exposure": float(exposure)})
+        self.device.submit_command_buffer(encoder.finish())
+        image = display.to_numpy().view(np.uint8)[: 4 * w * h].reshape(h, w, 4)
+        return Image(mean, w * h, 4), image
+
+    @_device_errors
     def gbuffer_view(self, channel: str) -> np.ndarray:
         """A G-buffer channel of the device's primary hits, read back (a debugging view: one
         transfer a frame is fine); uncovered pixels 0, as on Embree."""
