@@ -19,8 +19,12 @@ class MeshArrays:
         self.uvs = f32(scene.uvs)
         self.indices = np.ascontiguousarray(scene.indices, np.int32)
         self.material_ids = np.ascontiguousarray(scene.material_ids, np.int32)
-        p0, p1, p2 = (self.positions[self.indices[:, k]] for k in range(3))
-        cross = np.cross(p1 - p0, p2 - p0)
+        corners = self.positions[self.indices]  # (T, 3 vertices, 3)
+        e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+        cross = np.empty_like(e1)  # e1 x e2, written out: np.cross makes several temporaries
+        cross[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+        cross[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+        cross[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
         length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
         self.tri_area = f32(0.5 * length)
         self.face_normals = f32(cross / np.maximum(length, 1e-30)[:, None])
@@ -46,6 +50,7 @@ class MeshArrays:
                 chunks.append(f32(m.texture[..., :3].reshape(-1, 3)))
                 offset += h * w
         self.tex_data = np.ascontiguousarray(np.concatenate(chunks), np.float32)
-        self.eps = np.float32(max(scene.diagonal * 2e-5, 1e-5))
-        self.far = np.float32(max(scene.diagonal * 4.0, 1.0))
+        diagonal = scene.diagonal  # a pass over every vertex: once
+        self.eps = np.float32(max(diagonal * 2e-5, 1e-5))
+        self.far = np.float32(max(diagonal * 4.0, 1.0))
 
