@@ -116,7 +116,81 @@ def measure_scaling(renderer: Renderer, camera: Camera, size, threads: list[int]
     return rows
 
 
+def measure_device_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frames: int) -> dict:
+    """A GPU backend's pass against the same device tracing the very same rays alone: the
+    pass's GPU time (timestamps) and the replay's (rt/slang/backend.py: record, replay), each
+    the fastest of `frames` alternated frames."""
+    backend = renderer.ray_tracing()
+    renderer.reset()
+    for _ in range(2):  # warm-up: pipelines compiled, buffers made
+        renderer.render(camera, *size, pass_name)
+    pass_ms, raw_ms, rays = [], [], []
+    for _ in range(frames):
+        renderer.render(camera, *size, pass_name)
+        pass_ms.append(renderer.profiler.frame[f"{pass_name}_gpu"])
+        capacity = int(renderer.profiler.counters.get("rays", 0) * 1.25) + 4096
+        while True:
+            backend.record(capacity)
+            renderer.render(camera, *size, pass_name)
+            n, ms, fitted = backend.replay()
+            if fitted:
+                break
+            capacity *= 2
+        raw_ms.append(ms)
+        rays.append(n)
+    p, r = float(np.min(pass_ms)), float(np.min(raw_ms))
+    return {"pass": pass_name, "tracer": backend.name, "pass_gpu_ms": p, "raw_trace_gpu_ms": r, "efficiency": r / p,
+            "rays": int(np.median(rays)), "mrays_per_s_pass": np.median(rays) / p / 1e3,
+            "mrays_per_s_raw": np.median(rays) / r / 1e3}
+
+
+def run_device_perf(args, ctx, options: list[str]) -> int:
+    """bench --perf with a GPU backend (--set tracer=vulkan|cuda): each pass's efficiency on
+    its device (measure_device_pass), at every --perf-sizes size."""
+    quick = args.quick
+    sizes = [parse_size(s) for s in (args.perf_sizes.split(",") if args.perf_sizes else
+                                     (["160x90"] if quick else ["1920x1080"]))]
+    scenes = [s.strip() for s in (args.scenes or ("arcade,cafe" if quick else "arcade,street,cafe,park,temple"))
+              .split(",") if s.strip()]
+    frames = args.frames or (1 if quick else 3)
+    doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"), "options": options,
+           "passes": []}
+    for spec in scenes:
+        scene = load_scene(spec)
+        opts = Options()
+        opts.apply(options + ["gbuffer=rt"])
+        renderer = Renderer(ctx, scene, opts)
+        camera = Camera.from_view(scene.default_view(), scene.diagonal)
+        backend = renderer.ray_tracing()
+        doc["tracer"] = {"name": backend.name, "device": getattr(backend, "adapter", "CPU")}
+        for size in sizes:
+            for name in PASSES:
+                row = {"scene": scene.name, "size": list(size), **measure_device_pass(renderer, camera, size, name,
+                                                                                      frames)}
+                doc["passes"].append(row)
+                print(f"  {scene.name:8} {size[0]}x{size[1]} {name:12} {row['pass_gpu_ms']:8.3f} ms  raw trace "
+                      f"{row['raw_trace_gpu_ms']:8.3f} ms  {row['rays'] / 1e6:6.2f} Mrays  efficiency "
+                      f"{row['efficiency']:.2f}", flush=True)
+        renderer.release()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text(out / "perf.json", json.dumps(doc, indent=1))
+    worst = min(doc["passes"], key=lambda r: r["efficiency"])
+    print(f"min efficiency = {worst['efficiency']:.2f} ({worst['pass']}, {worst['scene']})")
+    return 0
+
+
 def run_perf(args) -> int:
+    options = list(getattr(args, "set", None) or [])
+    if options:
+        from rt.backends import resolve
+
+        probe = Options()
+        probe.apply(options)
+        if resolve(probe.get("tracer")) != "embree":
+            ctx = create_headless_context()
+            print(f"perf on {machine_label(machine_info(ctx))}, tracer {probe.get('tracer')}")
+            return run_device_perf(args, ctx, options)
     quick = args.quick
     sizes = [parse_size(s) for s in (args.perf_sizes.split(",") if args.perf_sizes else
                                      (["160x90"] if quick else ["640x360", "1280x720"]))]

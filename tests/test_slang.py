@@ -188,3 +188,18 @@ def test_frame_ends_on_the_device_as_in_gl(gl, vulkan, sets):
         (sets or ("",))[0], 3)
     assert np.mean(np.abs(lin_e - lin_v) > 1e-3 * np.maximum(lin_e, 1e-2)) < 0.01
     assert np.mean(np.abs(disp_e - disp_v) > 1) < 0.01
+
+
+def test_bench_perf_on_vulkan_replays_the_passes_rays(tmp_path, vulkan):
+    """bench --perf --set tracer=vulkan: each pass's GPU time against the same device tracing
+    the rays it logged (trace.slang) alone."""
+    import json
+
+    r = rtlab("bench", "--perf", "--quick", "--set", "tracer=vulkan", "--scenes", "street", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "perf.json").read_text())
+    assert doc["tracer"]["name"] == "vulkan"
+    rows = {row["pass"]: row for row in doc["passes"]}
+    assert set(rows) == {"shadows", "ao", "gi", "reflections", "reference"}
+    for row in rows.values():
+        assert row["rays"] > 0 and row["pass_gpu_ms"] > 0 and row["raw_trace_gpu_ms"] > 0 and row["efficiency"] > 0

@@ -17,13 +17,15 @@ from rt.slang.scene import DeviceScene
 EFFECTS = ("ao", "shadows", "gi", "reflections", "reference")
 # effect: its shader file, entry points (ray generation, misses, closest hit), random stream (as
 # the Embree backend's: RtFrame.key_base) and the channels of its own image
+MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 and 1
 SHADERS = {
-    "ao": ("ao.slang", "ao_rays", ("shadow_miss",), None, 2, 1),
-    "shadows": ("shadows.slang", "shadow_rays", ("shadow_miss",), None, 1, 3),
-    "gi": ("gi.slang", "gi_rays", ("hit_miss", "shadow_miss"), "closest", 4, 3),
-    "reflections": ("reflections.slang", "reflection_rays", ("hit_miss", "shadow_miss"), "closest", 3, 4),
-    "reference": ("reference.slang", "reference_rays", ("hit_miss", "shadow_miss"), "closest", 5, 1),
+    "ao": ("ao.slang", "ao_rays", 2, 1),
+    "shadows": ("shadows.slang", "shadow_rays", 1, 3),
+    "gi": ("gi.slang", "gi_rays", 4, 3),
+    "reflections": ("reflections.slang", "reflection_rays", 3, 4),
+    "reference": ("reference.slang", "reference_rays", 5, 1),
 }
+LOG_FLOATS = 8  # a logged ray (trace.slang: g_ray_log): 2 float4
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
@@ -66,6 +68,8 @@ class SlangBackend(Backend):
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
         self._counted = 0  # rays counted on the host (primary rays); the effects count theirs on the device
         self.gpu_ms: dict = {}  # the current frame's dispatches: name -> GPU time (ms)
+        self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
+        self._log_count = self._buffer("log.count", 1, 4)
         self._counter = self._buffer("rays_traced", 1, 4)
         self._counter.copy_from_numpy(np.zeros(1, np.uint32))
 
@@ -167,18 +171,19 @@ class SlangBackend(Backend):
 
         inputs = self.inputs
         w, h = inputs.width, inputs.height
-        file, raygen, misses, closest, stream, aux_channels = SHADERS[effect]
+        file, raygen, stream, aux_channels = SHADERS[effect]
         aux_name = AUX_CHANNEL.get(effect, "unused")
         out = self._buffer("radiance", w * h * 3, 4)
         aux = self._buffer(aux_name, w * h * aux_channels, 4)
-        pipeline = self._pipeline(effect, file, raygen, misses, closest)
+        pipeline = self._pipeline(effect, file, raygen, MISSES, "closest")
         values = self._options(effect, inputs.options)
 
         def bind(c):
             c["g_scene"] = self.scene.tlas
             self._bind_gbuffer(c["g_gbuffer"])
-            if closest:
+            if effect not in ("ao", "shadows"):
                 self.scene.bind_mesh(c["g_mesh"])
+            self._bind_log(c)
             if effect != "ao":
                 self.scene.bind_lights(c["g_lights"])
                 c["g_far"] = float(self.scene.arrays.far)
@@ -194,6 +199,36 @@ class SlangBackend(Backend):
         self.gpu_ms[effect] = pipeline.dispatch(w, h, bind)
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
+
+    def _bind_log(self, cursor) -> None:
+        """The ray log of trace.slang: the recording's while a frame is recorded, else an unused one."""
+        log, capacity = self._recording if self._recording is not None else (self._buffer("log.none", 2, 16), 0)
+        cursor["g_ray_log"], cursor["g_log_count"], cursor["g_log_capacity"] = log, self._log_count, capacity
+
+    def record(self, capacity: int) -> None:
+        """Log every ray the effects trace until replay() (bench --perf), up to capacity rays."""
+        self._recording = (self._buffer("log", 2 * max(capacity, 1), 16), int(capacity))
+        self._log_count.copy_from_numpy(np.zeros(1, np.uint32))
+
+    @_device_errors
+    def replay(self) -> tuple[int, float, bool]:
+        """Trace the recorded rays again alone (shaders/rt/replay.slang); ends the recording.
+        Returns (rays, GPU ms, whether every ray fitted in the log)."""
+        log, capacity = self._recording
+        self._recording = None
+        logged = int(self._log_count.to_numpy().view(np.uint32)[0])
+        count = min(logged, capacity)
+        row = 4096
+        pipeline = self._pipeline("replay", "replay.slang", "replay_rays", MISSES, "closest")
+        sink = self._buffer("log.sink", 1, 4)
+
+        def bind(c):
+            c["g_scene"] = self.scene.tlas
+            c["g_ray_log"], c["g_log_count"], c["g_log_capacity"] = log, self._log_count, 0
+            c["g_count"], c["g_row"], c["g_sink"] = count, row, sink
+
+        ms = pipeline.dispatch(row, max(1, -(-count // row)), bind)
+        return count, ms, logged <= capacity
 
     @_device_errors
     def present(self, radiance, weight: float, exposure: float) -> tuple:

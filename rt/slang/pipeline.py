@@ -8,14 +8,14 @@ class Pipeline:
 
         entry_points = [raygen, *misses] + ([closest_hit] if closest_hit else [])
         self.device = device
-        # entry points may live in the effect's file or in the shared paths.slang it imports
-        modules = [device.load_module(file)] + ([device.load_module("paths.slang")] if file != "paths.slang" else [])
+        # entry points live in the effect's file or in trace.slang (the misses and the closest hit)
+        modules = [device.load_module(file)] + ([device.load_module("trace.slang")] if file != "trace.slang" else [])
 
         def entry(name: str):
             for module in modules:
                 if name in [e.name for e in module.entry_points]:
                     return module.entry_point(name)
-            raise RuntimeError(f"no entry point {name} in {file} or paths.slang")
+            raise RuntimeError(f"no entry point {name} in {file} or trace.slang")
 
         self.program = device.link_program(modules=modules, entry_points=[entry(e) for e in entry_points])
         groups = [spy.HitGroupDesc(hit_group_name="hit", closest_hit_entry_point=closest_hit)] if closest_hit else []
