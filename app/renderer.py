@@ -162,7 +162,7 @@ class Renderer:
         self.profiler.begin_frame()
         names = active(pass_name, self.options)
         backend = self.ray_tracing() if any(self.passes[n].device == "rt" for n in names) else None
-        if backend is not None and not backend.accepts_gbuffer:  # it traces its own primary hits
+        if backend is not None and not backend.wants_gbuffer(pass_name):  # it traces its own primary hits
             names = prune(self.passes, [n for n in names if n != "gbuffer_pack"])
         traced = [n for n in names if self.passes[n].device == "rt"]
         first = names.index(traced[0]) if traced else len(names)

@@ -35,7 +35,11 @@ class Backend:
 
     name = ""
     rays_traced = 0  # rays traced since creation (the profiler's ray count reads the difference)
-    accepts_gbuffer = True  # begin_frame takes the raster G-buffer when the graph reads one back
+
+    def wants_gbuffer(self, mode: str) -> bool:
+        """Whether begin_frame takes the raster G-buffer in this pass mode (when the graph
+        rasterises one); else the backend traces its own primary hits."""
+        return True
 
     def set_scene(self, scene) -> None:
         """Upload the scene and build its acceleration structure (once per scene)."""

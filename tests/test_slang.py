@@ -85,14 +85,15 @@ def test_shadows_lit_plane_matches_analytic_on_vulkan(gl, vulkan):
 
 
 def test_hybrid_on_vulkan_swaps_in_the_devices_images(gl, vulkan):
-    """hybrid reads each effect's own image from the device (to_host, then a texture): the same
-    picture as with Embree's, but for edge pixels where the raster and the ray-traced primary
-    hits differ."""
+    """hybrid reads each effect's own image from the device (to_host, then a texture), traced
+    from the raster G-buffer unpacked on the device (unpack.slang): Embree's picture but for a
+    few grazing rays."""
     scene = build_builtin("street")
     sets = ("hybrid.gi=true", "hybrid.reflections=true")
     embree = run(gl, scene, "hybrid", frames=2, size=(96, 54), sets=sets)
     vulkan_img = run(gl, scene, "hybrid", frames=2, size=(96, 54), sets=sets + ("tracer=vulkan",))
-    assert embree.std() > 0.01 and np.mean(np.abs(embree - vulkan_img) > 0.02) < 0.01
+    differ = np.abs(embree - vulkan_img) > 1e-3 * np.maximum(embree, 1e-2)
+    assert embree.std() > 0.01 and differ.mean() < 0.005
 
 
 def test_switching_tracer_keeps_a_working_backend(gl, vulkan):

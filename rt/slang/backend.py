@@ -73,7 +73,10 @@ class SlangBackend(Backend):
         self._counter = self._buffer("rays_traced", 1, 4)
         self._counter.copy_from_numpy(np.zeros(1, np.uint32))
 
-    accepts_gbuffer = False  # primary hits come from rays on the device: no raster G-buffer read back
+    def wants_gbuffer(self, mode: str) -> bool:
+        """The raster G-buffer only where the graph rasterises anyway (hybrid: the traced pixels
+        are then the forward pass's); elsewhere primary hits come from rays on the device."""
+        return mode == "hybrid"
 
     @property
     def rays_traced(self) -> int:
@@ -105,7 +108,8 @@ class SlangBackend(Backend):
     # -- the frame ------------------------------------------------------------------------
     @_device_errors
     def begin_frame(self, inputs: FrameInputs) -> None:
-        """Primary hits by rays on the device (the raster G-buffer is not read: accepts_gbuffer)."""
+        """Primary hits: the raster G-buffer unpacked on the device when the graph reads one
+        back (wants_gbuffer), else rays from the eye through every pixel centre."""
         self.inputs = inputs
         self._counted += int(self._counter.to_numpy().view(np.uint32)[0])  # the last frame's, before it can wrap
         self._counter.copy_from_numpy(np.zeros(1, np.uint32))
@@ -113,6 +117,9 @@ class SlangBackend(Backend):
         right, up, forward = (np.asarray(v, np.float32) for v in cam.basis())
         self.gbuffer = {name: self._buffer(f"gbuffer.{name}", w * h, 16)
                         for name in ("position", "normal", "true_normal", "albedo", "emissive", "view_dir")}
+        if inputs.gbuffer is not None:
+            self._unpack(inputs.gbuffer, cam, w, h, right, up, forward)
+            return
         pipeline = self._pipeline("primary", "primary.slang", "primary_rays", ("primary_miss",), "primary_hit")
 
         def bind(c):
@@ -126,6 +133,25 @@ class SlangBackend(Backend):
 
         self.gpu_ms = {"primary": pipeline.dispatch(w, h, bind)}
         self._counted += w * h
+
+    def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
+        import slangpy as spy
+
+        usage = spy.BufferUsage.shader_resource
+        # GL's read-back arrays are read-only views: slangpy takes writable ones
+        geometry = self.device.create_buffer(usage=usage, data=np.array(packed["geometry"], np.uint32).reshape(-1, 4))
+        material = self.device.create_buffer(usage=usage, data=np.array(packed["material"], np.uint32).reshape(-1, 2))
+        if "unpack" not in self._pipelines:
+            self._pipelines["unpack"] = self.device.create_compute_kernel(
+                self.device.load_program("unpack.slang", ["unpack"]))
+        encoder = self.device.create_command_encoder()
+        self._pipelines["unpack"].dispatch(
+            thread_count=[w, h, 1], command_encoder=encoder,
+            vars={"g_geometry": geometry, "g_material": material, "g_gbuffer": self.gbuffer, "g_width": w,
+                  "g_height": h, "g_eye": np.asarray(cam.eye, np.float32), "g_right": right, "g_up": up,
+                  "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2))})
+        self.device.submit_command_buffer(encoder.finish())
+        self.gpu_ms = {}
 
     def _bind_gbuffer(self, cursor) -> None:
         for name, buf in self.gbuffer.items():
