@@ -208,7 +208,9 @@ class Renderer:
             weight = 0.0
         else:
             weight, count = 1.0 / (count + 1), count + 1
-        mean, image = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")))
+        mean, display = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")))
+        with self.profiler.cpu("device_readback"):  # the one transfer of the frame: 8 bits a channel
+            image = frame.backend.to_host(display)
         return mean, image, count
 
     def finish(self, job: Job) -> Frame:

@@ -58,6 +58,17 @@ class Image:
                                                                                               self.channels)
 
 
+class Rgba8:
+    """A height x width RGBA8 image in a device buffer, rows bottom-up (present's display)."""
+
+    def __init__(self, buffer, width: int, height: int):
+        self.buffer, self.width, self.height = buffer, width, height
+
+    def to_numpy(self) -> np.ndarray:
+        n = 4 * self.width * self.height
+        return self.buffer.to_numpy().view(np.uint8)[:n].reshape(self.height, self.width, 4)
+
+
 class SlangBackend(Backend):
     def __init__(self, kind: str = "vulkan"):
         self.name = kind
@@ -260,8 +271,8 @@ class SlangBackend(Backend):
     def present(self, radiance, weight: float, exposure: float) -> tuple:
         """The end of the frame on the device: the running mean of radiance (weight: 1 / (frames
         so far + 1), 1 restarts it, 0 keeps it) and its tone-mapped 8-bit RGBA (rows bottom-up,
-        as GL stores a texture). Returns (the mean, a device image; the 8-bit image, on the host):
-        only the 8-bit image leaves the device."""
+        as GL stores a texture). Returns both as device images: only the 8-bit one need leave
+        the device (to_host)."""
         inputs = self.inputs
         w, h = inputs.width, inputs.height
         mean = self._buffer("accumulated", w * h, 16)
@@ -275,8 +286,7 @@ class SlangBackend(Backend):
             vars={"g_radiance": radiance.buffer, "g_accumulated": mean, "g_display": display, "g_width": w,
                   "g_height": h, "g_weight": float(weight), "g_exposure": float(exposure)})
         self.device.submit_command_buffer(encoder.finish())
-        image = display.to_numpy().view(np.uint8)[: 4 * w * h].reshape(h, w, 4)
-        return Image(mean, w * h, 4), image
+        return Image(mean, w * h, 4), Rgba8(display, w, h)
 
     @_device_errors
     def gbuffer_view(self, channel: str) -> np.ndarray:
