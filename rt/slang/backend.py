@@ -15,9 +15,9 @@ from rt.slang.pipeline import Pipeline
 from rt.slang.scene import DeviceScene
 
 EFFECTS = ("ao", "shadows", "gi", "reflections", "reference")
-# effect: its shader file, entry points (ray generation, misses, closest hit), random stream (as
-# the Embree backend's: RtFrame.key_base) and the channels of its own image
-MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 and 1
+MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 and 1, and its closest hit
+# effect: its shader file and ray-generation entry point, its random stream (the Embree backend's:
+# RtFrame.key_base) and the channels of its own image
 SHADERS = {
     "ao": ("ao.slang", "ao_rays", 2, 1),
     "shadows": ("shadows.slang", "shadow_rays", 1, 3),
@@ -25,7 +25,6 @@ SHADERS = {
     "reflections": ("reflections.slang", "reflection_rays", 3, 4),
     "reference": ("reference.slang", "reference_rays", 5, 1),
 }
-LOG_FLOATS = 8  # a logged ray (trace.slang: g_ray_log): 2 float4
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
