@@ -67,6 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--perf-rounds", type=int, help="sweeps through the thread counts for --perf's scaling, "
                    "keeping each count's fastest frame (default 2; more on a noisy shared host)")
 
+    s = sub.add_parser("warmup", help="compile every ray-tracing kernel ahead of use (once per version)")
+
     s = sub.add_parser("devices", help="list the ray-tracing backends available here, and what tracer=auto picks")
     s.add_argument("--json", action="store_true", help="machine-readable output")
 
@@ -98,6 +100,35 @@ def cmd_scenes(args) -> int:
               f"{r['materials']:>9}  {bounds:<34} {', '.join(r['views'])}")
         if r["description"]:
             print(f"{'':<10} {r['description']}")
+    return 0
+
+
+def cmd_warmup(args) -> int:
+    """Render every ray-traced pass once, small, on the Embree backend, so that its compiled
+    kernels are in the cache before a user's first frame (the viewer would wait for them)."""
+    import time
+
+    from app.camera import Camera
+    from app.gl_context import create_headless_context
+    from app.options import Options
+    from app.renderer import Renderer
+    from scenes.builtin import build_builtin
+
+    t0 = time.perf_counter()
+    ctx = create_headless_context()
+    scene = build_builtin("cafe")  # point, emissive and environment lights: every light kind's code
+    camera = Camera.from_view(scene.default_view(), scene.diagonal)
+    variants = [("ao", []), ("shadows", []), ("shadows", ["shadows.lights=one"]), ("gi", []),
+                ("gi", ["gi.bounces=2", "gi.shadows=false"]), ("reflections", ["reflections.max_depth=2"]),
+                ("reference", []), ("hybrid", ["hybrid.gi=true", "hybrid.reflections=true"]),
+                ("normal", ["gbuffer=rt"])]
+    for pass_name, sets in variants:
+        options = Options()
+        options.apply(sets)
+        renderer = Renderer(ctx, scene, options)
+        renderer.render(camera, 32, 18, pass_name)
+        renderer.release()
+    print(f"{PROG}: kernels compiled and cached in {time.perf_counter() - t0:.0f} s")
     return 0
 
 
@@ -161,12 +192,18 @@ def main(argv=None) -> int:
         if args.command is None:
             parser.print_help()
             return 2
+        if args.command in ("shot", "view", "bench") and sys.stderr.isatty():
+            from rt.embree.process import kernels_cached
+
+            if not kernels_cached():  # a one-time wait that would otherwise look like a hang
+                print(f"{PROG}: the first ray-traced frame compiles this version's kernels (once: a minute or "
+                      f"two; `rtlab warmup` does it ahead of use)", file=sys.stderr, flush=True)
         if args.command == "shot":
             from app.headless import run_shot
 
             return run_shot(args)
         return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report,
-                "devices": cmd_devices}[args.command](args)
+                "devices": cmd_devices, "warmup": cmd_warmup}[args.command](args)
     except UserError as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return e.exit_code

@@ -46,3 +46,9 @@ sys.exit(0 if app.__file__.startswith('$PWD/') else 1)" 2>/dev/null; then
     echo "setup: installing rtlab and its Python dependencies"
     $PY -m pip install -q --disable-pip-version-check -e '.[dev]'
 fi
+
+# compile the ray-tracing kernels once per version, so that a user's first frame does not wait
+if ! $PY -c "from rt.embree.process import kernels_cached; import sys; sys.exit(0 if kernels_cached() else 1)" 2>/dev/null; then
+    echo "setup: compiling the ray-tracing kernels (once per version: a minute or two)"
+    $PY -m app.cli warmup || echo "setup: warmup failed; the first ray-traced frames will compile the kernels instead"
+fi

@@ -88,3 +88,14 @@ def test_view_without_display_suggests_shot():
     assert r.returncode != 0
     assert "Traceback" not in r.stderr
     assert "rtlab shot" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_warmup_compiles_every_kernel_and_says_so(tmp_path):
+    """rtlab warmup renders every ray-traced pass once (scripts/setup.sh runs it), so a user's
+    first frame does not wait for the compiler."""
+    r = rtlab("warmup", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "kernels compiled and cached" in r.stdout
+    from rt.embree.process import kernels_cached
+
+    assert kernels_cached()
