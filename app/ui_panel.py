@@ -109,7 +109,7 @@ class Panel:
             for key in option_keys_for(v.options, v.pass_name):
                 self._option(imgui, key)
         if imgui.collapsing_header("Camera"):
-            cams = list(v.scene.views)
+            cams = list(v.bookmarks)  # the scene's views, or the bookmarks file loaded
             for k, name in enumerate(cams[:9]):
                 if imgui.button(f"{k + 1}: {name}"):
                     v.go_to_view(name)

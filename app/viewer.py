@@ -142,11 +142,15 @@ class Viewer:
         self.panel.message = f"saved {len(data)} bookmarks to {path}"
 
     def load_bookmarks(self, path: str) -> None:
+        """A file saved by save_bookmarks: {name: {eye, target, up, fov}}. Anything else (a list,
+        a vector of two numbers, a camera looking at its own eye) is refused with one line, and
+        the bookmarks in use stay."""
         try:
             data = json.loads(Path(path).read_text())
-            views = {name: View(name, tuple(d["eye"]), tuple(d["target"]), tuple(d.get("up", (0, 1, 0))),
-                                float(d.get("fov", 60.0))) for name, d in data.items()}
-        except (OSError, ValueError, KeyError, TypeError) as e:
+            if not isinstance(data, dict) or not data:
+                raise ValueError("expected an object of named views, as 'save bookmarks' writes")
+            views = {str(name): _bookmark(str(name), d) for name, d in data.items()}
+        except (OSError, ValueError, KeyError, TypeError, RecursionError) as e:
             raise UserError(f"cannot load bookmarks from {path}: {e}") from None
         self.bookmarks = views
         self.panel.message = f"loaded {len(views)} bookmarks"
@@ -297,6 +301,27 @@ class Viewer:
         self.renderer.release()
         self.glfw.destroy_window(self.window)
         self.glfw.terminate()
+
+
+def _bookmark(name: str, d) -> View:
+    """One saved view, checked: three finite numbers a vector, a field of view within (0, 180)."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{name}: expected an object with eye, target, up, fov")
+
+    def vector(key: str, default=None) -> tuple:
+        v = d.get(key, default)
+        if not isinstance(v, (list, tuple)) or len(v) != 3 or not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v):
+            raise ValueError(f"{name}: {key} must be three finite numbers, got {v!r}")
+        return tuple(float(x) for x in v)
+
+    eye, target, up = vector("eye"), vector("target"), vector("up", (0.0, 1.0, 0.0))
+    fov = d.get("fov", 60.0)
+    if not isinstance(fov, (int, float)) or isinstance(fov, bool) or not 0.0 < fov < 180.0:
+        raise ValueError(f"{name}: fov must be a number of degrees within (0, 180), got {fov!r}")
+    if np.allclose(eye, target):
+        raise ValueError(f"{name}: eye and target are the same point")
+    return View(name, eye, target, up, float(fov))
 
 
 def run_viewer(args) -> int:

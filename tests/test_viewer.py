@@ -71,3 +71,31 @@ def test_fly_camera_logic():
     fly.update(0.0, FlyInput(scroll=2))
     assert fly.speed == pytest.approx(speed * 1.44)
     assert not fly.update(0.1, FlyInput())
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("[1, 2]", "object of named views"),
+    ('{"a": {"eye": [0, 1], "target": [0, 0, 0]}}', "eye must be three finite numbers"),
+    ('{"a": {"eye": [0, 1, 2], "target": [0, 0, "x"]}}', "target must be three"),
+    ('{"a": {"eye": [0, 1, 2], "target": [0, 0, 0], "fov": 0}}', "fov"),
+    ('{"a": {"eye": [0, 1, 2], "target": [0, 1, 2]}}', "same point"),
+    ('{"a": 3}', "expected an object"),
+    ("{}", "object of named views"),
+])
+def test_bad_bookmark_files_are_one_user_error_and_keep_the_old_ones(tmp_path, text, needle):
+    """Bookmark files a user may hand-edit: refused with one line, the bookmarks in use stay (the
+    viewer's load_bookmarks, without a window)."""
+    from types import SimpleNamespace
+
+    from app.viewer import Viewer
+    from core.errors import UserError
+
+    path = tmp_path / "views.json"
+    path.write_text(text)
+    viewer = SimpleNamespace(bookmarks={"old": object()}, panel=SimpleNamespace(message=""))
+    with pytest.raises(UserError, match=needle):
+        Viewer.load_bookmarks(viewer, str(path))
+    assert list(viewer.bookmarks) == ["old"]
+    path.write_text('{"front": {"eye": [0, 1, 5], "target": [0, 1, 0], "fov": 50}}')
+    Viewer.load_bookmarks(viewer, str(path))
+    assert list(viewer.bookmarks) == ["front"] and viewer.bookmarks["front"].fov == 50.0
