@@ -14,6 +14,10 @@ class Profiler:
         self.frame: dict[str, float] = {}
         self._queries: dict = {}
         self.counters: dict[str, float] = {}
+        # the last frame that was finished (end_frame): what the panel shows while the next one
+        # is still being traced, and only the passes that frame ran
+        self.finished: dict[str, float] = {}
+        self.finished_counters: dict[str, float] = {}
 
     def record(self, name: str, ms: float, kind: str = "cpu") -> None:
         self.samples[name].append(ms)
@@ -45,6 +49,9 @@ class Profiler:
     def begin_frame(self) -> None:
         self.frame = {}
         self.counters = {}
+
+    def end_frame(self) -> None:
+        self.finished, self.finished_counters = dict(self.frame), dict(self.counters)
 
     def count(self, name: str, n: float) -> None:
         self.counters[name] = self.counters.get(name, 0) + n

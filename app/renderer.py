@@ -233,6 +233,7 @@ class Renderer:
                         raise
                 frame.channels[name] = self._upload(frame, name, image)
         self._run(job, job.gl_after)
+        self.profiler.end_frame()
         self.prev_camera = frame.camera.copy()
         self.frame = frame
         return frame

@@ -161,16 +161,16 @@ class Panel:
             for h in ("pass", "kind", "last ms", "avg ms"):
                 imgui.table_setup_column(h)
             imgui.table_headers_row()
-            for name in prof.names():
+            for name, ms in prof.finished.items():  # the passes of the last finished frame only
                 imgui.table_next_row()
-                for col, text in enumerate((name, prof.kind.get(name, ""), f"{prof.last(name):.2f}",
+                for col, text in enumerate((name, prof.kind.get(name, ""), f"{ms:.2f}",
                                             f"{prof.average(name):.2f}")):
                     imgui.table_set_column_index(col)
                     imgui.text(text)
             imgui.end_table()
-        rays = prof.counters.get("rays", 0)
+        rays = prof.finished_counters.get("rays", 0)
         if rays:
-            ms = sum(prof.frame.values())  # every pass of the last rendered frame
+            ms = sum(prof.finished.values())  # every pass of the last finished frame
             imgui.text(f"{rays / 1e6:.2f} Mrays/frame, {rays / max(ms, 1e-6) / 1e3:.2f} Mrays/s")
         if v.future is not None:
             imgui.text_colored((1.0, 0.8, 0.3, 1.0), "tracing the next frame...")

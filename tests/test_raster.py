@@ -173,3 +173,17 @@ def test_gpu_timings_survive_the_32_bit_query_limit(gl):
     with p.gpu(gl, "slow"):
         pass
     assert 0 <= p.frame["slow"] < 1000  # the wall time, not 4294.97 ms
+
+
+def test_profiler_shows_the_passes_of_the_last_finished_frame_only(gl):
+    """After a forward frame then an AO frame, the profiler's finished frame lists AO's passes,
+    not the forward ones that no longer run (the viewer's table reads it)."""
+    scene = build_builtin("street")
+    r = Renderer(gl, scene, Options())
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    r.render(cam, 48, 27, "forward")
+    assert "forward_lighting" in r.profiler.finished
+    r.render(cam, 48, 27, "ao")
+    assert "ao" in r.profiler.finished and "forward_lighting" not in r.profiler.finished
+    assert r.profiler.finished_counters["rays"] > 0
+    r.release()
