@@ -217,7 +217,7 @@ class SlangBackend(Backend):
         def bind(c):
             c["g_scene"] = self.scene.tlas
             self._bind_gbuffer(c["g_gbuffer"])
-            if effect not in ("ao", "shadows"):
+            if effect != "ao":  # the others import paths.slang: the mesh and the lights
                 self.scene.bind_mesh(c["g_mesh"])
             self._bind_log(c)
             if effect != "ao":
