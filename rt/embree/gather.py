@@ -7,19 +7,9 @@ import numpy as np
 from numba import njit
 
 from rt.embree.kernels import environment_rgb, environment_terms
+from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
 
 INV_PI = np.float32(1 / np.pi)
-
-
-def env_args(environment) -> tuple:
-    """An environment as kernel arguments (split_hits, kernels.background_fill): kind (0 black,
-    1 constant colour, 2 the analytic sky of scenes/model.py), colour (the sky's strength in
-    [0]), and the sky's horizon, zenith and ground colours."""
-    from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
-
-    kind = {"black": 0, "constant": 1, "sky": 2}[environment.kind]
-    color = np.asarray(environment.color if kind == 1 else (environment.strength, 0, 0), np.float32)
-    return kind, color, SKY_HORIZON, SKY_ZENITH, SKY_GROUND
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)

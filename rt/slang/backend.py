@@ -10,6 +10,7 @@ import numpy as np
 
 from core.errors import DeviceError, UserError
 from rt.backend import AUX_CHANNEL, Backend, FrameInputs
+from rt.environment import env_args
 from rt.slang.device import open_device
 from rt.slang.pipeline import Pipeline
 from rt.slang.scene import DeviceScene
@@ -168,13 +169,10 @@ class SlangBackend(Backend):
             cursor[name] = buf
 
     def _environment(self, cursor) -> None:
-        from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH
-
-        env = self.inputs.environment
-        kind = {"black": 0, "constant": 1, "sky": 2}[env.kind]
-        cursor["kind"] = kind
-        cursor["color"] = np.asarray(env.color if kind == 1 else (env.strength, 0, 0), np.float32)
-        cursor["horizon"], cursor["zenith"], cursor["ground"] = SKY_HORIZON, SKY_ZENITH, SKY_GROUND
+        """common.slang's Environment, from the same arguments as the Embree kernels'."""
+        for field, value in zip(("kind", "color", "horizon", "zenith", "ground"), env_args(self.inputs.environment),
+                                strict=True):
+            cursor[field] = value
 
     @_device_errors
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
