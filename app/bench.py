@@ -24,6 +24,7 @@ from app.machine import machine_info
 from app.options import Options
 from app.renderer import Renderer
 from core.errors import UserError
+from rt.hybrid import EFFECTS as HYBRID_EFFECTS
 from scenes.loaders import load_scene
 
 # name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on
@@ -71,7 +72,7 @@ def quality_options(config: str) -> list[str]:
     if base == "hybrid":
         return list(sets)
     effect = HYBRID_EFFECT[base]
-    return sets + [f"hybrid.{e}={'true' if e == effect else 'false'}" for e in ("shadows", "ao", "reflections", "gi")]
+    return sets + [f"hybrid.{e}={'true' if e == effect else 'false'}" for e in HYBRID_EFFECTS]
 
 
 class Progress:

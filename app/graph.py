@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from app.raster.channel_view import CHANNEL_VIEWS
+from rt.hybrid import EFFECTS as HYBRID_EFFECTS
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,7 @@ MODES: dict[str, tuple[Node, ...]] = {
     "forward": (Node("gbuffer"),) + FORWARD,
     # the forward graph with ray-traced inputs (rt/hybrid.py): always on the raster G-buffer
     "hybrid": (Node("gbuffer"), Node("gbuffer_pack"), Node("primary"))
-    + tuple(_hybrid_input(e) for e in ("shadows", "ao", "reflections", "gi")) + FORWARD,
+    + tuple(_hybrid_input(e) for e in HYBRID_EFFECTS) + FORWARD,
     **{effect: RT_FRONT + (Node(effect),) for effect in ("shadows", "reflections", "gi", "ao", "reference")},
     **{view: (Node("gbuffer", RASTER), Node("channel_view", RASTER), Node("primary", RT_PRIMARY),
               Node("gbuffer_view", RT_PRIMARY)) for view in CHANNEL_VIEWS},

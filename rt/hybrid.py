@@ -20,14 +20,3 @@ class HybridOptions:
 
 register_group("hybrid", HybridOptions)
 EFFECTS = ("shadows", "ao", "reflections", "gi")
-
-
-def effect_enabled(options, effect: str) -> bool:
-    """Whether hybrid swaps in this effect (RT GI's indirect light already holds the occlusion
-    that RT AO would add, so AO is off while GI is on)."""
-    on = bool(options.get(f"hybrid.{effect}"))
-    return on and not (effect == "ao" and options.get("hybrid.gi"))
-
-
-def enabled_effects(options) -> list[str]:
-    return [e for e in EFFECTS if options.get(f"hybrid.{e}")]
