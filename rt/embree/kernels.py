@@ -51,23 +51,6 @@ def prefetch_row(typingctx, array, row):
 
 
 @intrinsic
-def take_next(typingctx, counter):
-    """counter[0] += 1 atomically, returning the value before: how the threads of a parallel
-    kernel share out work items, each taking the next one when it is free (LLVM atomicrmw)."""
-    if not isinstance(counter, nbtypes.Array) or counter.dtype != nbtypes.int64:
-        return None
-
-    def codegen(context, builder, signature, args):
-        aty = signature.args[0]
-        ary = context.make_array(aty)(context, builder, args[0])
-        zero = context.get_constant(nbtypes.intp, 0)
-        ptr = cgutils.get_item_pointer(context, builder, aty, ary, [zero] * aty.ndim, wraparound=False)
-        return builder.atomic_rmw("add", ptr, ir.Constant(ir.IntType(64), 1), "monotonic")
-
-    return nbtypes.int64(counter), codegen
-
-
-@intrinsic
 def take_many(typingctx, counter, n):
     """counter[0] += n atomically, returning the value before: a run of n slots of a shared
     array for the calling thread alone (LLVM atomicrmw)."""
@@ -83,6 +66,13 @@ def take_many(typingctx, counter, n):
         return builder.atomic_rmw("add", ptr, count, "monotonic")
 
     return nbtypes.int64(counter, n), codegen
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def take_next(counter):
+    """counter[0] += 1 atomically, returning the value before: how the threads of a parallel
+    kernel share out work items, each taking the next one when it is free."""
+    return take_many(counter, np.int64(1))
 
 
 AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (incoherent hits
