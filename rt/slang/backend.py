@@ -77,6 +77,7 @@ class SlangBackend(Backend):
         self.inputs: FrameInputs | None = None
         self._pipelines: dict = {}
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
+        self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
         self._counted = 0  # rays counted on the host (primary rays); the effects count theirs on the device
         self.gpu_ms: dict = {}  # the current frame's dispatches: name -> GPU time (ms)
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
@@ -146,12 +147,16 @@ class SlangBackend(Backend):
         self._counted += w * h
 
     def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
-        import slangpy as spy
-
-        usage = spy.BufferUsage.shader_resource
-        # GL's read-back arrays are read-only views: slangpy takes writable ones
-        geometry = self.device.create_buffer(usage=usage, data=np.array(packed["geometry"], np.uint32).reshape(-1, 4))
-        material = self.device.create_buffer(usage=usage, data=np.array(packed["material"], np.uint32).reshape(-1, 2))
+        buffers = {}
+        for name, words in (("geometry", 4), ("material", 2)):  # device buffers reused from frame to frame
+            buffers[name] = self._buffer(f"gbuffer.packed_{name}", w * h, 4 * words)
+            # GL's read-back arrays are read-only views, which slangpy does not take: a writable copy
+            staging = self._staging.get(name)
+            if staging is None or staging.shape != packed[name].shape:
+                staging = self._staging[name] = np.empty(packed[name].shape, np.uint32)
+            np.copyto(staging, packed[name])
+            buffers[name].copy_from_numpy(staging)
+        geometry, material = buffers["geometry"], buffers["material"]
         if "unpack" not in self._pipelines:
             self._pipelines["unpack"] = self.device.create_compute_kernel(
                 self.device.load_program("unpack.slang", ["unpack"]))
