@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 EFFECTS = ("shadows", "reflections", "gi", "ao", "reference")
 
 # the image each effect makes besides radiance (rt/<effect>.py: the pass's writes)
@@ -28,6 +30,18 @@ class FrameInputs:
     seed: int = 0
     index: int = 0  # frames since the last reset: seeds this frame's random numbers
     gbuffer: dict | None = None  # the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), or None
+
+    def motion(self, positions: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+        """(N, 3) motion vectors, in pixels, of the points at `positions` seen in `pixels`: where
+        the last frame's camera saw them to where this frame's pixel centres are (third column 0),
+        as the raster G-buffer's motion channel."""
+        aspect = self.width / max(self.height, 1)
+        prev = self.prev_camera
+        clip = np.c_[positions, np.ones(len(positions))] @ (prev.projection_matrix(aspect) @ prev.view_matrix()).T
+        ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
+        y, x = np.divmod(pixels, self.width)
+        now = np.stack([x + 0.5, self.height - (y + 0.5)], 1)
+        return np.c_[now - (ndc * 0.5 + 0.5) * [self.width, self.height], np.zeros(len(positions))]
 
 
 class Backend:

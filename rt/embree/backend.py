@@ -58,15 +58,7 @@ class EmbreeBackend(Backend):
         values = {"albedo": s.albedo, "normal": s.n, "position": s.p, "roughness": s.roughness[:, None],
                   "emissive": s.emissive, "depth": gb.depth[gb.index][:, None]}
         if channel == "motion":
-            aspect = inputs.width / max(inputs.height, 1)
-            prev = inputs.prev_camera
-            view_proj = prev.projection_matrix(aspect) @ prev.view_matrix()
-            clip = np.c_[s.p, np.ones(len(s))] @ view_proj.T
-            ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
-            px_prev = (ndc * 0.5 + 0.5) * [inputs.width, inputs.height]
-            y, x = np.divmod(gb.index, inputs.width)
-            px_now = np.stack([x + 0.5, inputs.height - (y + 0.5)], 1)
-            values["motion"] = np.c_[px_now - px_prev, np.zeros(len(s))]
+            values["motion"] = inputs.motion(s.p, gb.index)
         v = values[channel]
         return rf.full(np.broadcast_to(v, (len(s), 3)) if v.shape[1] == 1 else v)
 

@@ -302,13 +302,7 @@ class SlangBackend(Backend):
                   "roughness": read["normal"][:, 3:4], "emissive": read["emissive"][:, :3],
                   "depth": read["albedo"][:, 3:4]}
         if channel == "motion":
-            aspect = inputs.width / max(inputs.height, 1)
-            prev = inputs.prev_camera
-            clip = np.c_[read["position"][:, :3], np.ones(n)] @ (prev.projection_matrix(aspect) @ prev.view_matrix()).T
-            ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
-            y, x = np.divmod(np.arange(n), inputs.width)
-            now = np.stack([x + 0.5, inputs.height - (y + 0.5)], 1)
-            values["motion"] = np.c_[now - (ndc * 0.5 + 0.5) * [inputs.width, inputs.height], np.zeros(n)]
+            values["motion"] = inputs.motion(read["position"][:, :3], np.arange(n))
         v = np.broadcast_to(values[channel], (n, 3)) if values[channel].shape[1] == 1 else values[channel]
         return np.where(covered[:, None], v, 0.0).astype(np.float32)
 
