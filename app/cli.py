@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
 import warnings
 
@@ -20,7 +21,8 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="When does ray-traced lighting beat rasterised lighting? View, measure, "
-                                       "and explain, pass by pass.")
+                                       "and explain, pass by pass.",
+                epilog="--debug (anywhere): show the traceback of an internal error, and libraries' log lines")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
 
     s = sub.add_parser("scenes", help="list built-in scenes (or a file's statistics)")
@@ -184,35 +186,53 @@ def _warning_line(message, category, filename, lineno, file=None, line=None):
 
 
 def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv  # anywhere on the line: tracebacks and third-party logs are shown
+    argv = [a for a in argv if a != "--debug"]
     warnings.showwarning = _warning_line
+    if not debug:
+        logging.disable(logging.CRITICAL)  # libraries' log lines are not rtlab's messages
     parser = build_parser()
     try:
-        init_process()
-        args = parser.parse_args(argv)
-        if args.command is None:
-            parser.print_help()
-            return 2
-        if args.command in ("shot", "view", "bench") and sys.stderr.isatty():
-            from rt.embree.process import kernels_cached
-
-            if not kernels_cached():  # a one-time wait that would otherwise look like a hang
-                print(f"{PROG}: the first ray-traced frame compiles this version's kernels (once: a minute or "
-                      f"two; `rtlab warmup` does it ahead of use)", file=sys.stderr, flush=True)
-        if args.command == "shot":
-            from app.headless import run_shot
-
-            return run_shot(args)
-        return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report,
-                "devices": cmd_devices, "warmup": cmd_warmup}[args.command](args)
+        return _run(parser, argv)
     except UserError as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return e.exit_code
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        print(f"{PROG}: interrupted; nothing written", file=sys.stderr)
         return 130
     except MemoryError:
-        print(f"{PROG}: error: out of memory", file=sys.stderr)
-        return 3
+        print(f"{PROG}: error: out of memory (try a smaller --size or scene)", file=sys.stderr)
+        return 2
+    except RecursionError:
+        print(f"{PROG}: error: input nested too deeply", file=sys.stderr)
+        return 2
+    except Exception as e:  # noqa: BLE001 - a bug of rtlab's: one line, the traceback on request
+        if debug:
+            raise
+        print(f"{PROG}: internal error: {type(e).__name__}: {str(e)[:300]} (rerun with --debug for the traceback)",
+              file=sys.stderr)
+        return 1
+
+
+def _run(parser, argv: list) -> int:
+    init_process()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    if args.command in ("shot", "view", "bench") and sys.stderr.isatty():
+        from rt.embree.process import kernels_cached
+
+        if not kernels_cached():  # a one-time wait that would otherwise look like a hang
+            print(f"{PROG}: the first ray-traced frame compiles this version's kernels (once: a minute or "
+                  f"two; `rtlab warmup` does it ahead of use)", file=sys.stderr, flush=True)
+    if args.command == "shot":
+        from app.headless import run_shot
+
+        return run_shot(args)
+    return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report,
+            "devices": cmd_devices, "warmup": cmd_warmup}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -1,14 +1,15 @@
 """`rtlab shot`: render a scene without a window and write PNG / raw float32 images."""
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
 from app.camera import Camera, parse_camera
-from app.gl_context import create_headless_context
-from app.image_io import write_npy, write_png
+from app.gl_context import check_frame_size, create_headless_context
+from app.image_io import check_output, write_npy, write_png
 from app.options import Options
-from app.passes import check_pass
+from app.passes import CHANNEL_VIEWS, RASTER, check_pass
 from app.renderer import Renderer
 from core.errors import UserError
 from scenes.loaders import load_scene
@@ -25,27 +26,64 @@ def parse_size(text: str) -> tuple[int, int]:
     return width, height
 
 
+PROGRESS_FRAMES = 2000  # longer runs print an estimate and their progress
+MAX_FRAMES = 100_000_000
+
+
 def run_shot(args) -> int:
     check_pass(args.pass_name)
     options = Options()
     options.apply(args.set or [])
     width, height = parse_size(args.size)
-    if args.frames < 1:
-        raise UserError(f"--frames must be at least 1, got {args.frames}")
+    if not 1 <= args.frames <= MAX_FRAMES:
+        raise UserError(f"--frames must be within 1..{MAX_FRAMES:,}, got {args.frames}")
     out = args.out or f"{Path(args.scene).stem.replace(':', '_')}_{args.pass_name}.png"
+    check_output(out, ".png", "screenshots")  # every output is checked before any work
+    if args.raw:
+        check_output(args.raw, ".npy", "raw images")
     scene = load_scene(args.scene)
     camera = parse_camera(args.camera, scene) if args.camera else Camera.from_view(scene.default_view(), scene.diagonal)
     ctx = create_headless_context()
+    check_frame_size(ctx, width, height, "raster" if args.pass_name in RASTER + CHANNEL_VIEWS else "ray-traced")
     renderer = Renderer(ctx, scene, options)
     renderer.seed = args.seed
     t0 = time.perf_counter()
-    for _ in range(args.frames):
-        renderer.render(camera, width, height, args.pass_name)
+    _render_frames(renderer, camera, width, height, args.pass_name, args.frames)
     elapsed = time.perf_counter() - t0
-    write_png(out, renderer.read_display())
+    display, linear = renderer.read_display(), (renderer.read_linear() if args.raw else None)
+    write_png(out, display)
     if args.raw:
-        write_npy(args.raw, renderer.read_linear())
+        write_npy(args.raw, linear)
     print(f"{scene.name}: {args.pass_name} {width}x{height}, {args.frames} frame(s) in {elapsed:.2f} s -> {out}"
           + (f", {args.raw}" if args.raw else ""))
     renderer.release()
     return 0
+
+
+def _render_frames(renderer, camera, width: int, height: int, pass_name: str, frames: int) -> None:
+    """Renders the frames; a long run states its estimate, then its progress every 10 s on
+    stderr (Ctrl-C stops it, and nothing is written)."""
+    t0 = last = time.perf_counter()
+    for k in range(frames):
+        renderer.render(camera, width, height, pass_name)
+        if frames < PROGRESS_FRAMES:
+            continue
+        now = time.perf_counter()
+        if k == 4:
+            eta = (now - t0) / 5 * (frames - 5)
+            print(f"rtlab: {frames:,} frames will take about {_duration(eta)} (Ctrl-C stops without writing)",
+                  file=sys.stderr, flush=True)
+        elif now - last >= 10.0 and k > 4:
+            last = now
+            eta = (now - t0) / (k + 1) * (frames - k - 1)
+            print(f"rtlab: frame {k + 1:,} of {frames:,}, about {_duration(eta)} left", file=sys.stderr, flush=True)
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 172800:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.0f} days"

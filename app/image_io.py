@@ -37,18 +37,41 @@ def atomic_path(path: str | Path):
             os.unlink(tmp)
 
 
+def check_output(path, suffix: str, what: str) -> Path:
+    """Refuse an output path that cannot be written, before any work is done: the wrong
+    suffix, a folder, a missing or unwritable parent folder, a name too long."""
+    path = Path(path)
+    if path.suffix.lower() != suffix:
+        raise UserError(f"{str(path)[:200]}: {what} are written as {suffix}")
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        if path.is_dir():
+            raise UserError(f"cannot write {str(path)[:200]}: it is a folder")
+        if not folder.is_dir():
+            raise UserError(f"cannot write {str(path)[:200]}: folder {str(folder)[:200]} does not exist")
+        if path.exists() and not path.is_file():
+            raise UserError(f"cannot write {str(path)[:200]}: not a regular file")
+    except OSError as e:  # a name too long, a loop of links...
+        raise UserError(f"cannot write {str(path)[:200]}: {e.strerror}") from None
+    except ValueError as e:  # a NUL in the name
+        raise UserError(f"cannot write {str(path)[:200]!r}: {e}") from None
+    if len(path.name.encode("utf-8", "replace")) > 240:  # room for atomic_path's temporary name
+        raise UserError(f"cannot write {str(path)[:200]}...: file name too long")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UserError(f"cannot write {str(path)[:200]}: folder {str(folder)[:200]} is not writable")
+    return path
+
+
 def write_png(path, rgb: np.ndarray) -> None:
     from PIL import Image
 
-    if Path(path).suffix.lower() != ".png":
-        raise UserError(f"{path}: screenshots are written as .png")
+    check_output(path, ".png", "screenshots")
     with atomic_path(path) as tmp:
         Image.fromarray(np.ascontiguousarray(rgb, np.uint8)).save(tmp, format="PNG")
 
 
 def write_npy(path, array: np.ndarray) -> None:
-    if Path(path).suffix.lower() != ".npy":
-        raise UserError(f"{path}: raw images are written as .npy")
+    check_output(path, ".npy", "raw images")
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             np.save(f, np.ascontiguousarray(array, np.float32))

@@ -12,6 +12,9 @@ import numpy as np
 from core.errors import UserError
 
 
+MAX_EXTENT = 1e9  # metres; a scene's diagonal
+
+
 @dataclass
 class Material:
     name: str = "default"
@@ -232,6 +235,10 @@ class Scene:
             raise UserError(f"{self.name}: the scene has no triangles")
         if not np.isfinite(self.positions).all():
             raise UserError(f"{self.name}: non-finite vertex positions")
+        extent = np.ptp(self.positions.astype(np.float64), axis=0) if v else np.zeros(3)
+        if float(np.linalg.norm(extent)) > MAX_EXTENT:
+            raise UserError(f"{self.name}: the scene spans {float(np.linalg.norm(extent)):.3g} m; rtlab renders scenes "
+                            f"up to {MAX_EXTENT:.0e} m across (float32 positions lose all precision beyond)")
         if self.indices.min() < 0 or self.indices.max() >= v:
             raise UserError(f"{self.name}: triangle indices out of range (vertex count {v})")
         self.indices = self.indices.astype(np.int32)

@@ -49,8 +49,11 @@ def bad_files(tmp):
     (tmp / "bad.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n")
     files["malformed ply"] = (str(tmp / "bad.ply"), "")
     huge, _ = quad_document("data")
-    huge["accessors"][0]["count"] = 4_000_000_000
+    for k in range(3):  # positions, normals, uvs: consistent counts that the machine cannot hold
+        huge["accessors"][k]["count"] = 2_000_000_000
     files["too large"] = (str(write_gltf(tmp / "huge.gltf", huge)), "too large for this machine")
+    huge["accessors"][0]["count"] = 4_000_000_000
+    files["count past int32"] = (str(write_gltf(tmp / "huge2.gltf", huge)), "out of range 1..2147483647")
     return files
 
 

@@ -1,4 +1,5 @@
-"""Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply)."""
+"""Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply). Files are read by
+rtlab's own readers, which check every value before use (scenes/loaders/checks.py)."""
 from __future__ import annotations
 
 import warnings
@@ -29,19 +30,22 @@ def _load(spec: str):
         if not path.suffix and not path.exists():
             raise UserError(f"unknown scene {spec!r}: not a built-in ({', '.join(BUILTINS)}) and not a file path")
         raise UserError(f"{path.name}: unsupported file type {ext or '(none)'!r}; use {', '.join(EXTENSIONS)}")
-    if not path.exists():
-        raise UserError(f"{spec}: no such file")
-    if not path.is_file():
-        raise UserError(f"{spec}: not a file")
     try:
-        with open(path, "rb"):
-            pass
-    except OSError as e:
-        raise UserError(f"{spec}: cannot read ({e.strerror})") from None
+        is_file, exists = path.is_file(), path.exists()
+    except (OSError, ValueError) as e:  # a name too long, a NUL in it...
+        raise UserError(f"{spec[:120]}: cannot use this path ({getattr(e, 'strerror', None) or e})") from None
+    if not exists:
+        raise UserError(f"{spec[:200]}: no such file")
+    if not is_file:
+        raise UserError(f"{spec[:200]}: not a file")
     if ext in (".gltf", ".glb"):
         from scenes.loaders.gltf import load_gltf
 
         return load_gltf(path)
-    from scenes.loaders.meshfile import load_mesh_file
+    if ext == ".obj":
+        from scenes.loaders.obj import load_obj
 
-    return load_mesh_file(path)
+        return load_obj(path)
+    from scenes.loaders.ply import load_ply
+
+    return load_ply(path)

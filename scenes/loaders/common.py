@@ -8,17 +8,23 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import UserError
+from scenes.loaders.checks import MAX_IMAGE_PIXELS
 
 
 def safe_child(scene_file: Path, relative: str) -> Path:
     """Resolve a path referenced by a scene file; refuse anything outside the scene's folder."""
     folder = scene_file.resolve().parent
+    if "\0" in relative:
+        raise UserError(f"{scene_file.name}: refusing a file name with a NUL character")
+    if len(relative) > 4096 or any(len(part.encode("utf-8", "replace")) > 255 for part in relative.split("/")):
+        raise UserError(f"{scene_file.name}: refusing {relative[:60]!r}...: file name too long")
     rel = Path(relative)
     if rel.is_absolute() or relative.startswith(("/", "\\")) or "://" in relative:
-        raise UserError(f"{scene_file.name}: refusing {relative!r}: referenced files must lie in the scene's folder")
+        raise UserError(f"{scene_file.name}: refusing {relative[:80]!r}: referenced files must lie in the scene's "
+                        "folder")
     target = (folder / rel).resolve()
     if folder not in target.parents and target != folder:
-        raise UserError(f"{scene_file.name}: refusing {relative!r}: it points outside the scene's folder")
+        raise UserError(f"{scene_file.name}: refusing {relative[:80]!r}: it points outside the scene's folder")
     return target
 
 
@@ -27,14 +33,26 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 
 
 def decode_image(data: bytes, what: str) -> np.ndarray | None:
-    """sRGB-encoded image bytes -> H x W x 3 linear float32, or None (with a warning) if undecodable."""
-    from PIL import Image, UnidentifiedImageError
+    """sRGB-encoded image bytes -> H x W x 3 linear float32, or None (with a warning) if the
+    image cannot be decoded or is larger than MAX_IMAGE_PIXELS or the free memory: the header's
+    size is checked before any pixel is decoded."""
+    from PIL import Image
 
     try:
-        with Image.open(io.BytesIO(data)) as img:
+        with warnings.catch_warnings():  # Pillow's own bomb warning: the size check below says it better
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            img = Image.open(io.BytesIO(data))
+        with img:
+            w, h = img.size
+            need = w * h * 48  # decoded bytes, float copies and the sRGB conversion's temporaries
+            if w * h > MAX_IMAGE_PIXELS or need > available_memory() * 0.5:
+                warnings.warn(f"{what}: a {w}x{h} image is larger than rtlab decodes ({MAX_IMAGE_PIXELS:,} "
+                              "pixels); using the base colour", stacklevel=2)
+                return None
             rgb = np.asarray(img.convert("RGB"), np.float32) / 255.0
-    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as e:
-        warnings.warn(f"{what}: cannot decode image ({e}); using the base colour", stacklevel=2)
+    except Exception as e:  # noqa: BLE001 - Pillow's decoders raise many kinds of error for broken files
+        warnings.warn(f"{what}: cannot decode image ({type(e).__name__}: {str(e)[:120]}); using the base colour",
+                      stacklevel=2)
         return None
     return srgb_to_linear(rgb)
 

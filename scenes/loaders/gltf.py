@@ -9,38 +9,43 @@ from __future__ import annotations
 import base64
 import json
 import struct
+import warnings
 from pathlib import Path
 from urllib.parse import unquote
 
 import numpy as np
 
 from core.errors import UserError
+from scenes.loaders.checks import Checker, read_regular
 from scenes.loaders.common import check_memory, compute_normals, decode_image, safe_child
+from scenes.loaders.gltf_checks import WIDTH, check_document
 from scenes.model import Environment, Light, Material, Scene, View
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
-WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 GLB_MAGIC = 0x46546C67
 
 
 def load_gltf(path: Path) -> Scene:
-    data = path.read_bytes()
+    data = read_regular(path, path.name)
     if path.suffix.lower() == ".glb":
         doc, bin_chunk = _split_glb(data, path)
     else:
-        try:
-            doc = json.loads(data.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise UserError(f"{path.name}: malformed glTF JSON ({e})") from None
+        doc = _parse_json(data, path, "glTF JSON")
         bin_chunk = None
     if not isinstance(doc, dict) or "asset" not in doc:
         raise UserError(f"{path.name}: not a glTF document (no 'asset')")
+    roots = check_document(doc, Checker(path.name))
+    with np.errstate(all="ignore"):  # overflow shows as non-finite values, checked where used
+        return _Reader(doc, bin_chunk, path).scene(roots)
+
+
+def _parse_json(data: bytes, path: Path, what: str):
     try:
-        return _Reader(doc, bin_chunk, path).scene()
-    except UserError:
-        raise
-    except (KeyError, IndexError, TypeError, ValueError, AttributeError, struct.error) as e:
-        raise UserError(f"{path.name}: malformed glTF ({type(e).__name__}: {e})") from None
+        return json.loads(data.decode("utf-8"))
+    except RecursionError:
+        raise UserError(f"{path.name}: malformed {what} (nested too deeply)") from None
+    except (UnicodeDecodeError, ValueError) as e:  # JSONDecodeError, and ints past Python's digit limit
+        raise UserError(f"{path.name}: malformed {what} ({str(e)[:200]})") from None
 
 
 def _split_glb(data: bytes, path: Path):
@@ -60,10 +65,7 @@ def _split_glb(data: bytes, path: Path):
         if len(chunk) != clen:
             raise UserError(f"{path.name}: truncated GLB chunk")
         if ctype == 0x4E4F534A:
-            try:
-                doc = json.loads(chunk.decode("utf-8"))
-            except (UnicodeDecodeError, json.JSONDecodeError) as e:
-                raise UserError(f"{path.name}: malformed GLB JSON chunk ({e})") from None
+            doc = _parse_json(chunk, path, "GLB JSON chunk")
         elif ctype == 0x004E4942:
             binary = chunk
         offset += 8 + clen
@@ -87,7 +89,17 @@ def _node_matrix(node: dict) -> np.ndarray:
     return m
 
 
+def _normal_matrix(m3: np.ndarray) -> np.ndarray:
+    """What normals are multiplied by (as rows): the cofactor matrix, which is det(M) M^-T and
+    exists for singular M too (a flattened mesh keeps normals), signed so they keep their side."""
+    c0, c1, c2 = m3[:, 0], m3[:, 1], m3[:, 2]
+    cof = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=1)
+    return (cof if np.linalg.det(m3) >= 0 else -cof).T
+
+
 class _Reader:
+    """Reads a document that check_document has accepted."""
+
     def __init__(self, doc: dict, bin_chunk: bytes | None, path: Path):
         self.doc, self.bin, self.path = doc, bin_chunk, path
         self._buffers: dict[int, bytes] = {}
@@ -103,11 +115,7 @@ class _Reader:
                 return base64.b64decode(payload, validate=False)
             except ValueError as e:
                 raise UserError(f"{self.path.name}: bad base64 data URI ({e})") from None
-        target = safe_child(self.path, unquote(uri))
-        try:
-            return target.read_bytes()
-        except OSError as e:
-            raise UserError(f"{self.path.name}: cannot read {uri!r}: {e.strerror}") from None
+        return read_regular(safe_child(self.path, unquote(uri)), self.path.name)
 
     def buffer(self, i: int) -> bytes:
         if i not in self._buffers:
@@ -118,32 +126,32 @@ class _Reader:
                 data = self.bin
             else:
                 raise UserError(f"{self.path.name}: buffer {i} has no data")
-            if len(data) < b.get("byteLength", 0):
+            if len(data) < b["byteLength"]:
                 raise UserError(f"{self.path.name}: buffer {i} is truncated ({len(data)} of {b['byteLength']} bytes)")
             self._buffers[i] = data
         return self._buffers[i]
 
-    def view_bytes(self, i: int) -> bytes:
+    def view_bytes(self, i: int) -> memoryview:
         v = self.doc["bufferViews"][i]
         data = self.buffer(v["buffer"])
         start, length = v.get("byteOffset", 0), v["byteLength"]
         if start + length > len(data):
             raise UserError(f"{self.path.name}: bufferView {i} runs past its buffer")
-        return data[start:start + length]
+        return memoryview(data)[start:start + length]
 
     def accessor(self, i: int) -> np.ndarray:
+        """The accessor's elements as a (count, width) array; its size was checked against the
+        bytes the file holds before anything is allocated."""
         a = self.doc["accessors"][i]
-        if "sparse" in a:
-            raise UserError(f"{self.path.name}: sparse accessors are not supported")
         dtype = np.dtype(COMPONENT[a["componentType"]])
         width, count = WIDTH[a["type"]], a["count"]
-        if "bufferView" not in a:
-            return np.zeros((count, width), np.float32)
         view = self.doc["bufferViews"][a["bufferView"]]
         raw = self.view_bytes(a["bufferView"])
         offset = a.get("byteOffset", 0)
         stride = view.get("byteStride") or dtype.itemsize * width
-        need = offset + (count - 1) * stride + dtype.itemsize * width if count else 0
+        if stride < dtype.itemsize * width:
+            raise UserError(f"{self.path.name}: accessor {i}: byteStride {stride} is smaller than its elements")
+        need = offset + (count - 1) * stride + dtype.itemsize * width
         if need > len(raw):
             raise UserError(f"{self.path.name}: accessor {i} runs past its bufferView")
         arr = np.ndarray((count, width), dtype, raw, offset, (stride, dtype.itemsize)).copy()
@@ -152,17 +160,26 @@ class _Reader:
         return arr
 
     def texture(self, index: int) -> np.ndarray | None:
+        """A texture as linear RGB, or None (with a warning naming the file) if it cannot be
+        read or decoded: the material then renders with its factors, as other viewers do."""
         if index not in self._textures:
-            tex = self.doc["textures"][index]
-            src = tex.get("source")
-            img = self.doc["images"][src] if src is not None else None
+            src = self.doc["textures"][index].get("source")
+            img = self.doc["images"][src] if src is not None else {}
+            what = f"{self.path.name}: texture {index}"
             data = None
-            if img is not None:
-                if "bufferView" in img:
-                    data = self.view_bytes(img["bufferView"])
-                elif "uri" in img:
+            if "bufferView" in img:
+                data = self.view_bytes(img["bufferView"]).tobytes()
+            elif "uri" in img:
+                what = f"{self.path.name}: texture {index} ({img['uri'][:80]})"
+                target = None if img["uri"].startswith("data:") else safe_child(self.path, unquote(img["uri"]))
+                try:
                     data = self._uri_bytes(img["uri"])
-            self._textures[index] = decode_image(data, f"{self.path.name}: texture {index}") if data else None
+                except UserError as e:
+                    if target is None:
+                        raise
+                    warnings.warn(f"{what}: {str(e).split(': ', 1)[-1]}; the material renders without it",
+                                  stacklevel=2)
+            self._textures[index] = decode_image(data, what) if data else None
         return self._textures[index]
 
     # -- scene -----------------------------------------------------------------------------
@@ -172,81 +189,79 @@ class _Reader:
             pbr = m.get("pbrMetallicRoughness", {})
             strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
             emissive = np.asarray(m.get("emissiveFactor", (0, 0, 0)), float) * float(strength)
+            if not np.isfinite(emissive).all() or emissive.max() > 3.4e38:
+                raise UserError(f"{self.path.name}: materials[{k}]: emissive radiance is not a finite float32")
             tex = None
             if "baseColorTexture" in pbr:
                 tex = self.texture(pbr["baseColorTexture"]["index"])
             out.append(Material(
                 name=m.get("name", f"material_{k}"),
-                base_color=tuple(float(c) for c in pbr.get("baseColorFactor", (1, 1, 1, 1))),
+                base_color=tuple(min(float(c), 1.0) for c in pbr.get("baseColorFactor", (1, 1, 1, 1))),
                 texture=tex,
-                roughness=float(np.clip(pbr.get("roughnessFactor", 1.0), 0.0, 1.0)),
-                metallic=float(np.clip(pbr.get("metallicFactor", 1.0), 0.0, 1.0)),
+                roughness=float(pbr.get("roughnessFactor", 1.0)),
+                metallic=float(pbr.get("metallicFactor", 1.0)),
                 emissive=tuple(float(e) for e in emissive),
                 double_sided=bool(m.get("doubleSided", False)),
             ))
         out.append(Material("gltf_default", (1, 1, 1, 1), None, 1.0, 1.0))  # glTF's default material
         return out
 
-    def estimate(self) -> tuple[int, int]:
-        """Triangles and vertices the file would expand to (instances counted), from its JSON."""
+    def _drawn_nodes(self, roots: list[int]) -> list[int]:
+        """Every node under the roots (the nodes form trees: check_document)."""
+        out, todo = [], list(roots)
+        while todo:
+            k = todo.pop()
+            out.append(k)
+            todo.extend(self.doc["nodes"][k].get("children", []))
+        return out
+
+    def estimate(self, nodes: list[int]) -> tuple[int, int]:
+        """Triangles and vertices the drawn nodes expand to, from the JSON alone."""
         doc = self.doc
         per_mesh = []
         for mesh in doc.get("meshes", []):
             tris = verts = 0
-            for prim in mesh.get("primitives", []):
+            for prim in mesh["primitives"]:
                 if prim.get("mode", 4) != 4:
                     continue
-                v = int(doc["accessors"][prim["attributes"]["POSITION"]]["count"])
-                i = int(doc["accessors"][prim["indices"]]["count"]) if "indices" in prim else v
+                v = doc["accessors"][prim["attributes"]["POSITION"]]["count"]
+                i = doc["accessors"][prim["indices"]]["count"] if "indices" in prim else v
                 tris, verts = tris + i // 3, verts + v
             per_mesh.append((tris, verts))
-        tris = sum(per_mesh[n["mesh"]][0] for n in doc.get("nodes", []) if "mesh" in n)
-        verts = sum(per_mesh[n["mesh"]][1] for n in doc.get("nodes", []) if "mesh" in n)
-        return tris, verts
+        meshes = [doc["nodes"][k]["mesh"] for k in nodes if "mesh" in doc["nodes"][k]]
+        return sum(per_mesh[m][0] for m in meshes), sum(per_mesh[m][1] for m in meshes)
 
-    def scene(self) -> Scene:
+    def scene(self, roots: list[int]) -> Scene:
         doc = self.doc
-        check_memory(*self.estimate(), self.path.name)
+        check_memory(*self.estimate(self._drawn_nodes(roots)), self.path.name)
         mats = self.materials()
         default_mat = len(mats) - 1
         pos, nrm, uvs, idx, mid = [], [], [], [], []
         lights, views = [], {}
         light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
         count = 0
-
-        def visit(node_index: int, parent: np.ndarray, depth: int):
-            nonlocal count
-            if depth > 64:
-                raise UserError(f"{self.path.name}: node hierarchy too deep or cyclic")
+        todo = [(r, np.eye(4)) for r in reversed(roots)]
+        while todo:  # depth first, in the file's order; no recursion (trees may be deep)
+            node_index, parent = todo.pop()
             node = doc["nodes"][node_index]
             m = parent @ _node_matrix(node)
+            if not np.isfinite(m).all():
+                raise UserError(f"{self.path.name}: nodes[{node_index}]: its transform overflows")
             if "mesh" in node:
                 for prim in doc["meshes"][node["mesh"]]["primitives"]:
                     if prim.get("mode", 4) != 4:
                         continue  # points and lines carry no surface
-                    attrs = prim["attributes"]
-                    p = self.accessor(attrs["POSITION"]).astype(np.float32)
-                    if not np.isfinite(p).all() or not np.isfinite(m).all():
-                        raise UserError(f"{self.path.name}: non-finite vertex positions in mesh {node['mesh']}")
-                    if "indices" in prim:
-                        tri = self.accessor(prim["indices"]).astype(np.int64).reshape(-1, 3)
-                    else:
-                        tri = np.arange(p.shape[0] - p.shape[0] % 3).reshape(-1, 3)
-                    if tri.size and (tri.min() < 0 or tri.max() >= p.shape[0]):
-                        raise UserError(f"{self.path.name}: triangle indices out of range in mesh {node['mesh']}")
-                    n = self.accessor(attrs["NORMAL"]).astype(np.float32) if "NORMAL" in attrs else None
-                    t = self.accessor(attrs["TEXCOORD_0"]).astype(np.float32) if "TEXCOORD_0" in attrs \
-                        else np.zeros((p.shape[0], 2), np.float32)
-                    wp = p @ m[:3, :3].T + m[:3, 3]
-                    if n is None:
-                        wn = compute_normals(wp, tri)
-                    else:
-                        wn = n @ np.linalg.inv(m[:3, :3])
+                    p, n, t, tri = self._primitive(prim, node["mesh"])
+                    wp = (p @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+                    if not np.isfinite(wp).all():
+                        raise UserError(f"{self.path.name}: non-finite vertex positions in mesh {node['mesh']} "
+                                        f"(node {node_index})")
+                    wn = compute_normals(wp, tri) if n is None else n @ _normal_matrix(m[:3, :3])
                     if np.linalg.det(m[:3, :3]) < 0:
                         tri = tri[:, [0, 2, 1]]
                     pos.append(wp)
                     nrm.append(wn)
-                    uvs.append(t[:, :2])
+                    uvs.append(t)
                     idx.append(tri + count)
                     mid.append(np.full(tri.shape[0], prim.get("material", default_mat), np.int32))
                     count += p.shape[0]
@@ -254,24 +269,9 @@ class _Reader:
             if ext is not None:
                 lights.append(self._light(light_defs[ext["light"]], m))
             if "camera" in node:
-                cam = doc["cameras"][node["camera"]]
-                if cam.get("type") == "perspective":
-                    name = cam.get("name") or node.get("name") or f"camera_{len(views)}"
-                    eye = m[:3, 3]
-                    fwd = -m[:3, 2] / max(np.linalg.norm(m[:3, 2]), 1e-12)
-                    up = m[:3, 1] / max(np.linalg.norm(m[:3, 1]), 1e-12)
-                    views[name] = View(name, tuple(map(float, eye)), tuple(map(float, eye + fwd)),
-                                       tuple(map(float, up)), float(np.degrees(cam["perspective"]["yfov"])))
-            for child in node.get("children", []):
-                visit(child, m, depth + 1)
-
-        scene_index = doc.get("scene", 0)
-        if doc.get("scenes"):
-            roots = doc["scenes"][scene_index].get("nodes", [])
-        else:
-            roots = range(len(doc.get("nodes", [])))
-        for r in roots:
-            visit(r, np.eye(4), 0)
+                self._camera(doc["cameras"][node["camera"]], node, m, views)
+            for child in reversed(node.get("children", [])):
+                todo.append((child, m))
         if not pos:
             raise UserError(f"{self.path.name}: the file has no triangle meshes")
         scene = Scene(self.path.stem, np.concatenate(pos), np.concatenate(nrm), np.concatenate(uvs),
@@ -280,21 +280,57 @@ class _Reader:
         scene.validate()
         return scene
 
+    def _primitive(self, prim: dict, mesh: int):
+        """Positions, normals (or None), uvs and triangles of a triangle primitive."""
+        attrs = prim["attributes"]
+        p = self.accessor(attrs["POSITION"]).astype(np.float32)
+        if not np.isfinite(p).all():
+            raise UserError(f"{self.path.name}: non-finite vertex positions in mesh {mesh}")
+        if "indices" in prim:
+            tri = self.accessor(prim["indices"]).astype(np.int64).ravel()
+        else:
+            tri = np.arange(p.shape[0], dtype=np.int64)
+        if tri.size % 3:
+            raise UserError(f"{self.path.name}: mesh {mesh}: {tri.size} indices is not a whole number of triangles")
+        tri = tri.reshape(-1, 3)
+        if tri.size and tri.max() >= p.shape[0]:
+            raise UserError(f"{self.path.name}: triangle indices out of range in mesh {mesh}")
+        n = self.accessor(attrs["NORMAL"]).astype(np.float32) if "NORMAL" in attrs else None
+        t = self.accessor(attrs["TEXCOORD_0"]).astype(np.float32) if "TEXCOORD_0" in attrs \
+            else np.zeros((p.shape[0], 2), np.float32)
+        t = np.where(np.isfinite(t), t, 0.0).astype(np.float32)
+        return p, n, t, tri
+
+    def _camera(self, cam: dict, node: dict, m: np.ndarray, views: dict) -> None:
+        name = cam.get("name") or node.get("name") or f"camera_{len(views)}"
+        if cam["type"] != "perspective":
+            warnings.warn(f"{self.path.name}: camera {str(name)[:60]!r} is orthographic; rtlab's cameras are "
+                          "perspective, so it is not offered as a view", stacklevel=2)
+            return
+        fwd, up = -m[:3, 2], m[:3, 1]
+        lf, lu = np.linalg.norm(fwd), np.linalg.norm(up)
+        if not (lf > 1e-12 and lu > 1e-12 and np.linalg.norm(np.cross(fwd / lf, up / lu)) > 1e-6):
+            warnings.warn(f"{self.path.name}: camera {str(name)[:60]!r} has a degenerate transform; skipped",
+                          stacklevel=2)
+            return
+        eye = m[:3, 3]
+        views[str(name)] = View(str(name), tuple(map(float, eye)), tuple(map(float, eye + fwd / lf)),
+                                tuple(map(float, up / lu)), float(np.degrees(cam["perspective"]["yfov"])))
+
     def _light(self, d: dict, m: np.ndarray) -> Light:
         kind = d.get("type")
         color = tuple(float(c) for c in d.get("color", (1, 1, 1)))
         intensity = float(d.get("intensity", 1.0))
         axis = -m[:3, 2]
-        axis = axis / max(np.linalg.norm(axis), 1e-12)
+        length = np.linalg.norm(axis)
+        axis = axis / length if length > 1e-30 else np.array([0.0, -1.0, 0.0])
+        if not np.isfinite(np.float32(max(color)) * np.float32(intensity)):
+            raise UserError(f"{self.path.name}: light {str(d.get('name', ''))[:60]!r}: color x intensity "
+                            "overflows float32")
         common = dict(color=color, intensity=intensity, position=tuple(map(float, m[:3, 3])),
                       direction=tuple(map(float, axis)), name=d.get("name", ""))
-        if kind == "directional":
-            return Light(kind="directional", **common)
-        if kind == "point":
-            return Light(kind="point", **common)
         if kind == "spot":
             spot = d.get("spot", {})
             return Light(kind="spot", inner_cone=float(spot.get("innerConeAngle", 0.0)),
                          outer_cone=float(spot.get("outerConeAngle", np.pi / 4)), **common)
-        raise UserError(f"{self.path.name}: unknown light type {kind!r}")
-
+        return Light(kind=kind, **common)
