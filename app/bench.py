@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from app.camera import Camera, parse_camera
-from app.gl_context import create_headless_context
+from app.gl_context import check_frame_size, create_headless_context
 from app.headless import parse_size
 from app.image_io import atomic_path, write_png, write_text
 from app.machine import machine_info
@@ -175,6 +175,7 @@ def run_bench(args) -> int:
     Options().apply(list(common))  # a bad option fails before measuring
     loaded = [(spec, load_scene(spec)) for spec in scenes]  # fail on a bad scene before measuring
     ctx = create_headless_context()
+    check_frame_size(ctx, *size)
     timed_configs = [c for c in configs]
     quality_configs = [c for c in configs if not c.endswith("+acc")] if not args.no_quality else []
     work = len(loaded) * (len(timed_configs) + (len(quality_configs) + 4 if quality_configs else 0))

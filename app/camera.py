@@ -117,6 +117,8 @@ def parse_camera(text: str, scene) -> Camera:
     vals = np.array(fields["eye"] + fields["target"] + fields["up"] + (fields["fov"],))
     if not np.isfinite(vals).all():
         raise UserError("--camera: values must be finite")
+    if np.abs(vals[:9]).max() > 1e12:
+        raise UserError("--camera: coordinates must lie within +-1e12 m")
     if not 1.0 <= fields["fov"] <= 170.0:
         raise UserError(f"--camera: fov must be within 1..170 degrees, got {fields['fov']}")
     if np.linalg.norm(np.subtract(fields["target"], fields["eye"])) < 1e-9:

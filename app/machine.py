@@ -23,7 +23,7 @@ def usable_cores() -> int:
 
 def machine_info(ctx=None) -> dict:
     versions = {}
-    for pkg in ("numpy", "moderngl", "embreex", "glcontext", "trimesh", "flip-evaluator", "matplotlib"):
+    for pkg in ("numpy", "moderngl", "embreex", "glcontext", "flip-evaluator", "matplotlib"):
         try:
             versions[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:

@@ -275,6 +275,10 @@ def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, ga
 def run_report(args) -> int:
     folder = Path(args.dir)
     doc = load_results(folder)
-    write_report(folder, doc, html=True, budget_ms=args.budget_ms)
+    try:  # the report reads nothing but results.json: a value of the wrong kind there is the file's
+        write_report(folder, doc, html=True, budget_ms=args.budget_ms)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, ZeroDivisionError) as e:
+        raise UserError(f"{folder / 'results.json'}: not an rtlab results file ({type(e).__name__}: "
+                        f"{str(e)[:120]})") from None
     print(f"report: {folder}/report.md, {folder}/report.html")
     return 0

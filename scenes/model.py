@@ -11,7 +11,6 @@ import numpy as np
 
 from core.errors import UserError
 
-
 MAX_EXTENT = 1e9  # metres; a scene's diagonal
 
 

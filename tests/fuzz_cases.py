@@ -237,7 +237,7 @@ def write_case(folder: Path, name: str, data: bytes, extra: dict) -> Path:
 def check_load(path: Path) -> tuple[str | None, str]:
     """Loads `path` in a forked child (memory and time limited). Returns (problem, outcome):
     problem None if the outcome was a valid scene or one clean error line, else what went
-    wrong; outcome: "scene", or the error line."""
+    wrong; outcome: "scene" or the error line, then " | warning: ..." for each warning."""
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: load, report, exit without running the parent's cleanup
@@ -298,4 +298,5 @@ def _load_report(path: Path) -> tuple[str | None, str]:
     for w in caught:
         if w.category is not UserWarning or "\n" in str(w.message):
             return f"a {w.category.__name__} reached the user: {str(w.message)[:300]}", outcome
+        outcome += f" | warning: {w.message}"
     return None, outcome

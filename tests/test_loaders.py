@@ -120,3 +120,53 @@ def test_bad_inputs_raise_one_clear_error(tmp_path):
         msg = str(e.value)
         assert "\n" not in msg, name
         assert needle in msg, f"{name}: {msg}"
+
+
+def _mesh_summary(positions, triangles):
+    """Triangle count, total area and the sorted triangle centroids: what any two correct
+    readers of the same file agree on, whatever their vertex order or splitting."""
+    p = np.asarray(positions, np.float64)[np.asarray(triangles)]
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    centroids = np.round(p.mean(axis=1), 5)
+    return len(p), area.sum(), centroids[np.lexsort(centroids.T)]
+
+
+@pytest.mark.parametrize("kind", ["obj", "ascii", "binary_little_endian", "binary_big_endian"])
+def test_obj_and_ply_readers_agree_with_trimesh(tmp_path, kind):
+    """rtlab reads OBJ and PLY itself (checked values, no outside reads); trimesh, an independent
+    parser, must see the same surface in the same files: quads and a pentagon fanned, negative
+    OBJ indices, uvs and normals."""
+    trimesh = pytest.importorskip("trimesh")
+    rng = np.random.default_rng(3)
+    verts = rng.uniform(-1, 1, (12, 3)).astype(np.float32)
+    polys = [[0, 1, 2, 3], [4, 5, 6], [7, 8, 9, 10, 11], [0, 4, 8]]  # 2 + 1 + 3 + 1 triangles
+    if kind.startswith("binary"):  # trimesh reads binary PLY lists of one length only
+        polys = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11], [0, 4, 8, 1]]
+    if kind == "obj":
+        lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in verts] + ["vt 0.25 0.5", "vn 0 1 0"]
+        lines += ["f " + " ".join(f"{i - 12}/-1/1" for i in poly) for poly in polys]
+        path = tmp_path / "m.obj"
+        path.write_text("\n".join(lines) + "\n")
+    else:
+        header = (f"ply\nformat {kind} 1.0\nelement vertex 12\nproperty float x\nproperty float y\nproperty float z\n"
+                  f"element face {len(polys)}\nproperty list uchar int vertex_indices\nend_header\n")
+        if kind == "ascii":
+            body = "".join(f"{x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in verts)
+            body += "".join(f"{len(p)} " + " ".join(map(str, p)) + "\n" for p in polys)
+            data = (header + body).encode()
+        else:
+            o = "<" if kind == "binary_little_endian" else ">"
+            data = header.encode() + verts.astype(o + "f4").tobytes()
+            data += b"".join(np.array([len(p)], "u1").tobytes() + np.array(p, o + "i4").tobytes() for p in polys)
+        path = tmp_path / "m.ply"
+        path.write_bytes(data)
+    with pytest.warns(UserWarning, match="no lights"):
+        ours = load_scene(str(path))
+    theirs = trimesh.load(str(path), force="mesh", process=False)
+    a, b = _mesh_summary(ours.positions, ours.indices), _mesh_summary(theirs.vertices, theirs.faces)
+    assert a[0] == b[0] == sum(len(p) - 2 for p in polys)
+    assert a[1] == pytest.approx(b[1], rel=1e-5)
+    np.testing.assert_allclose(a[2], b[2], atol=2e-5)
+    if kind == "obj":
+        np.testing.assert_allclose(ours.uvs, [[0.25, 0.5]] * len(ours.uvs), atol=1e-6)  # v flipped: glTF's down
+        np.testing.assert_allclose(ours.normals, [[0, 1, 0]] * len(ours.normals), atol=1e-6)
