@@ -46,7 +46,7 @@ class LightSet:
         tris, keep, alias, pmf, le, double, start = [], [], [], [], [], [], [0]
         centre, radius, power = [], [], []
         for group in scene.emissive_clusters():
-            e = data.emissive[data.material_ids[group]]
+            e = scene.triangle_emission()[group]  # textured emission: its mean over each triangle
             weight = data.tri_area[group].astype(np.float64) * np.maximum(e @ LUMA, 0)
             total = weight.sum()
             if total <= 0:

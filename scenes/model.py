@@ -14,19 +14,51 @@ from core.errors import UserError
 MAX_EXTENT = 1e9  # metres; a scene's diagonal
 
 
+ALPHA_MODES = ("OPAQUE", "MASK", "BLEND")
+WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR = 0, 1, 2
+
+
 @dataclass
 class Material:
+    """glTF's metallic-roughness material. The base colour texture is multiplied with
+    base_color (alpha too); the other layers have their factors baked in at load (a texel is
+    the final value) and, where present, replace the constant. Every layer is sampled with the
+    same uvs and wrap mode."""
+
     name: str = "default"
     base_color: tuple = (0.8, 0.8, 0.8, 1.0)  # linear RGBA factor
-    texture: np.ndarray | None = None  # H x W x 3 float32 linear RGB, multiplied with base_color
+    texture: np.ndarray | None = None  # base colour: H x W x 3 (or 4: alpha) linear, multiplied with base_color
     roughness: float = 0.5
     metallic: float = 0.0
     emissive: tuple = (0.0, 0.0, 0.0)  # radiance Le (factor x strength), W/(sr m^2)
     double_sided: bool = True
+    orm: np.ndarray | None = None  # H x W x 3: occlusion (strength applied), roughness, metallic (factors applied)
+    normal_map: np.ndarray | None = None  # H x W x 3: tangent-space normal, scale applied, unit length
+    emissive_map: np.ndarray | None = None  # H x W x 3: radiance (factor x strength applied)
+    alpha_mode: str = "OPAQUE"  # OPAQUE | MASK (alpha_cutoff) | BLEND (drawn as MASK at alpha_cutoff 0.5)
+    alpha_cutoff: float = 0.5
+    wrap: tuple = (WRAP_REPEAT, WRAP_REPEAT)  # u, v
 
     @property
     def is_emissive(self) -> bool:
+        if self.emissive_map is not None:
+            return bool(self.emissive_map.max() > 0.0)
         return max(self.emissive) > 0.0
+
+    @property
+    def alpha_tested(self) -> bool:
+        """True where some of the surface may be cut away: a MASK or BLEND material whose alpha
+        (factor x texture) is not 1 everywhere."""
+        if self.alpha_mode == "OPAQUE":
+            return False
+        tex = self.texture
+        has_alpha = tex is not None and tex.shape[-1] == 4 and float(tex[..., 3].min()) < 1.0
+        return has_alpha or self.base_color[3] < 1.0
+
+    def layers(self) -> tuple:
+        """The texture layers in the order every backend stores them: base colour (RGBA),
+        occlusion-roughness-metallic, normal, emission; None where the constant applies."""
+        return (self.texture, self.orm, self.normal_map, self.emissive_map)
 
 
 @dataclass
@@ -131,6 +163,7 @@ class Scene:
     source: str = "builtin"
     # ambient radiance an artist would set for a raster engine; only the forward baseline uses it
     ambient: tuple = (0.0, 0.0, 0.0)
+    tangents: np.ndarray | None = None  # (V,4) float32 xyz tangent, w handedness; where normal maps are used
 
     # -- derived data -----------------------------------------------------------------
     @property
@@ -149,11 +182,30 @@ class Scene:
         return float(np.linalg.norm(hi - lo))
 
     def emissive_triangles(self) -> np.ndarray:
-        """Indices of triangles whose material emits: they are area lights."""
+        """Indices of triangles that emit: they are area lights."""
         flags = np.array([m.is_emissive for m in self.materials], bool)
-        if flags.size == 0:
+        if flags.size == 0 or not flags.any():
             return np.zeros(0, np.int64)
-        return np.nonzero(flags[self.material_ids])[0]
+        tris = np.nonzero(flags[self.material_ids])[0]
+        return tris[self.triangle_emission()[tris].max(axis=1) > 0.0]
+
+    def triangle_emission(self) -> np.ndarray:
+        """(T,3) float32 radiance each triangle emits as a light: its material's constant, or
+        where an emission texture applies, the texture's mean over the triangle's uv footprint
+        (so a panel that glows in one corner of its texture is a dim light, not a bright one)."""
+        if getattr(self, "_emission", None) is not None:
+            return self._emission
+        out = np.zeros((self.triangle_count, 3), np.float32)
+        for k, m in enumerate(self.materials):
+            tris = np.nonzero(self.material_ids == k)[0]
+            if tris.size == 0:
+                continue
+            if m.emissive_map is None:
+                out[tris] = m.emissive
+            else:
+                out[tris] = footprint_mean(m.emissive_map, self.uvs[self.indices[tris]], m.wrap)
+        self._emission = out
+        return out
 
     def emissive_clusters(self, max_clusters: int = 32) -> list[np.ndarray]:
         """Emissive triangles grouped by material and grid cell, the grid as fine as keeps at most
@@ -214,7 +266,8 @@ class Scene:
             "lights": len(self.lights),
             "light_kinds": kinds,
             "emissive_triangles": int(self.emissive_triangles().size),
-            "textures": sum(m.texture is not None for m in self.materials),
+            "textures": sum(layer is not None for m in self.materials for layer in m.layers()),
+            "alpha_tested_materials": sum(m.alpha_tested for m in self.materials),
             "bounds_min": [round(float(x), 4) for x in lo],
             "bounds_max": [round(float(x), 4) for x in hi],
             "environment": self.environment.to_string(),
@@ -248,6 +301,10 @@ class Scene:
         if not self.materials or self.material_ids.min() < 0 or self.material_ids.max() >= len(self.materials):
             raise UserError(f"{self.name}: material ids out of range")
         self.normals = fix_normals(self.normals)
+        if self.tangents is not None:
+            self.tangents = np.ascontiguousarray(self.tangents, np.float32).reshape(-1, 4)
+            if self.tangents.shape[0] != v or not np.isfinite(self.tangents).all():
+                raise UserError(f"{self.name}: tangents do not match the vertex count or are not finite")
 
 
 def fix_normals(normals: np.ndarray) -> np.ndarray:
@@ -258,6 +315,51 @@ def fix_normals(normals: np.ndarray) -> np.ndarray:
     n = n / np.maximum(length, 1e-12)
     n[bad] = (0.0, 1.0, 0.0)
     return n.astype(np.float32)
+
+
+# barycentric points at which a triangle's texture footprint is averaged (a 6-level grid)
+_LEVELS = 6
+_BARY = np.array([((i + 1 / 3) / _LEVELS, (j + 1 / 3) / _LEVELS) for i in range(_LEVELS) for j in range(_LEVELS - i)]
+                 + [((i + 2 / 3) / _LEVELS, (j + 2 / 3) / _LEVELS) for i in range(_LEVELS - 1)
+                    for j in range(_LEVELS - 1 - i)], np.float64)
+
+
+def sample_texture(tex: np.ndarray, uv: np.ndarray, wrap=(0, 0)) -> np.ndarray:
+    """Bilinear samples of an H x W x C texture at uvs (..., 2): glTF's convention (v down,
+    texel centres at half-integers), wrap modes per axis as Material.wrap."""
+    h, w = tex.shape[:2]
+    x = uv[..., 0] * w - 0.5
+    y = uv[..., 1] * h - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+
+    def index(i, n, mode):
+        i = i.astype(np.int64)
+        if mode == WRAP_CLAMP:
+            return np.clip(i, 0, n - 1)
+        if mode == WRAP_MIRROR:
+            i = np.mod(i, 2 * n)
+            return np.where(i < n, i, 2 * n - 1 - i)
+        return np.mod(i, n)
+
+    xa, xb = index(x0, w, wrap[0]), index(x0 + 1, w, wrap[0])
+    ya, yb = index(y0, h, wrap[1]), index(y0 + 1, h, wrap[1])
+    top = tex[ya, xa] * (1 - fx) + tex[ya, xb] * fx
+    bottom = tex[yb, xa] * (1 - fx) + tex[yb, xb] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def footprint_mean(tex: np.ndarray, corner_uvs: np.ndarray, wrap=(0, 0)) -> np.ndarray:
+    """(T, C) mean of a texture over triangles given their corner uvs (T, 3, 2), from a fixed
+    grid of barycentric points (uniform over the triangle's area)."""
+    a, b = _BARY[:, 0], _BARY[:, 1]
+    weights = np.stack([1 - a - b, a, b], 1)  # (S, 3)
+    out = np.zeros((corner_uvs.shape[0], tex.shape[2]), np.float64)
+    for start in range(0, corner_uvs.shape[0], 65536):  # bounded temporaries
+        c = corner_uvs[start:start + 65536].astype(np.float64)
+        uv = np.einsum("sk,tkc->tsc", weights, c)  # (T, S, 2)
+        out[start:start + 65536] = sample_texture(tex, uv, wrap).mean(axis=1)
+    return out.astype(np.float32)
 
 
 def auto_view(scene: Scene) -> View:

@@ -7,7 +7,7 @@ uniform sampler2D g_albedo;
 uniform sampler2D g_emissive;
 uniform sampler2D g_face;
 uniform sampler2D g_motion;
-uniform int channel;      // 0 albedo 1 normal 2 position 3 depth 4 roughness 5 emissive 6 motion
+uniform int channel;      // 0 albedo 1 normal 2 position 3 depth 4 roughness 5 emissive 6 motion 7 metallic
 out vec4 value;
 void main() {
     vec4 pos = texture(g_position, uv);
@@ -19,5 +19,6 @@ void main() {
     else if (channel == 4) v = vec3(texture(g_normal, uv).w);
     else if (channel == 5) v = texture(g_emissive, uv).rgb;
     else if (channel == 6) v = vec3(texture(g_motion, uv).xy, 0.0);
+    else if (channel == 7) v = vec3(texture(g_albedo, uv).a);
     value = vec4(v, 1.0);
 }

@@ -1,11 +1,11 @@
 // Shared by the raster shaders: material table lookups and the sky model.
 // The sky must match scenes/model.py sky_radiance().
 const float PI = 3.14159265358979;
-const int MAT_TEXELS = 3;
+const int MAT_TEXELS = 4;
 
-uniform sampler2D material_table;     // RGBA32F, MAT_TEXELS texels per material
+uniform sampler2D material_table;     // RGBA32F, MAT_TEXELS texels per material (app/raster/gpu_scene.py)
 uniform isampler2D triangle_materials; // R32I, one texel per triangle, 4096 wide
-uniform sampler2DArray base_textures;  // one layer per textured material
+uniform sampler2DArray base_textures;  // every texture layer of every material (Material.layers)
 
 int triangle_material(int prim) {
     return texelFetch(triangle_materials, ivec2(prim % 4096, prim / 4096), 0).r;
@@ -13,20 +13,70 @@ int triangle_material(int prim) {
 
 struct MaterialSample {
     vec3 albedo; float roughness; float metallic; vec3 emissive; int id;
+    float alpha; float cutoff;     // cutoff < 0: never cut away
+    float occlusion;               // the occlusion texture (raster ambient only)
+    float normal_layer; vec2 uv; int wrap;
 };
+
+// glTF's wrap modes (scenes.model.WRAP_*: 0 repeat, 1 clamp, 2 mirror) applied to uvs; the
+// array's sampler repeats. Sampled with the gradients of the unwrapped uvs (no seams in mips).
+vec2 wrap_uv(vec2 uv, int wrap) {
+    ivec2 mode = ivec2(wrap % 3, wrap / 3);
+    vec2 size = vec2(textureSize(base_textures, 0).xy);
+    vec2 out_uv = uv;
+    for (int a = 0; a < 2; ++a) {
+        if (mode[a] == 1) out_uv[a] = clamp(uv[a], 0.5 / size[a], 1.0 - 0.5 / size[a]);
+        if (mode[a] == 2) out_uv[a] = 1.0 - abs(mod(uv[a], 2.0) - 1.0);
+    }
+    return out_uv;
+}
+
+vec4 layer_sample(float layer, vec2 uv, int wrap) {
+    return textureGrad(base_textures, vec3(wrap_uv(uv, wrap), layer), dFdx(uv), dFdy(uv));
+}
 
 MaterialSample fetch_material(int id, vec2 uv) {
     vec4 t0 = texelFetch(material_table, ivec2(id * MAT_TEXELS + 0, 0), 0);
     vec4 t1 = texelFetch(material_table, ivec2(id * MAT_TEXELS + 1, 0), 0);
     vec4 t2 = texelFetch(material_table, ivec2(id * MAT_TEXELS + 2, 0), 0);
+    vec4 t3 = texelFetch(material_table, ivec2(id * MAT_TEXELS + 3, 0), 0);
     MaterialSample m;
+    m.wrap = int(t2.w + 0.5);
+    m.uv = uv;
     m.albedo = t0.rgb;
-    if (t1.w >= 0.0) m.albedo *= texture(base_textures, vec3(uv, t1.w)).rgb;
-    m.emissive = t1.rgb;
+    m.alpha = t0.a;
+    if (t1.w >= 0.0) {
+        vec4 base = layer_sample(t1.w, uv, m.wrap);
+        m.albedo *= base.rgb;
+        m.alpha *= base.a;
+    }
+    m.emissive = t3.z >= 0.0 ? layer_sample(t3.z, uv, m.wrap).rgb : t1.rgb;
     m.roughness = t2.x;
     m.metallic = t2.y;
+    m.occlusion = 1.0;
+    if (t3.x >= 0.0) {
+        vec3 orm = layer_sample(t3.x, uv, m.wrap).rgb;
+        m.occlusion = orm.r;
+        m.roughness = orm.g;
+        m.metallic = orm.b;
+    }
+    m.normal_layer = t3.y;
+    m.cutoff = t3.w;
     m.id = id;
     return m;
+}
+
+// The shading normal: the interpolated vertex normal n bent by the material's normal map in
+// the frame of the vertex tangent (xyz, w: handedness), as glTF defines it.
+vec3 mapped_normal(MaterialSample m, vec3 n, vec4 tangent) {
+    if (m.normal_layer < 0.0 || dot(tangent.xyz, tangent.xyz) < 1e-12) return n;
+    vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
+    if (dot(t, t) < 1e-12) return n;
+    t = normalize(t);
+    vec3 b = cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);
+    vec3 mapped = layer_sample(m.normal_layer, m.uv, m.wrap).xyz;
+    vec3 out_n = t * mapped.x + b * mapped.y + n * mapped.z;
+    return dot(out_n, out_n) > 1e-12 ? normalize(out_n) : n;
 }
 
 const vec3 SKY_HORIZON = vec3(0.9, 0.95, 1.0);

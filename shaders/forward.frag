@@ -6,6 +6,7 @@
 in vec3 v_position;
 in vec3 v_normal;
 in vec2 v_uv;
+in vec4 v_tangent;
 in vec4 v_clip;
 in vec4 v_prev_clip;
 
@@ -97,10 +98,11 @@ float point_visibility(int slot, vec3 light_pos, vec3 p, vec3 ng, float near, fl
 
 void main() {
     MaterialSample m = fetch_material(triangle_material(gl_PrimitiveID), v_uv);
+    if (m.cutoff >= 0.0 && m.alpha < m.cutoff) discard;  // alpha MASK, as in the G-buffer
     vec3 v = normalize(eye - v_position);
     vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));
     if (dot(ng, v) < 0.0) ng = -ng;
-    vec3 n = normalize(v_normal);
+    vec3 n = mapped_normal(m, normalize(v_normal), v_tangent);
     if (dot(n, ng) < 0.0) n = -n;
     vec3 brdf = m.albedo / PI;
     vec3 direct = vec3(0.0);
@@ -141,7 +143,7 @@ void main() {
     vec3 amb = texture(ambient_lut, vec2(n.y * 0.5 + 0.5, 0.5)).rgb + ambient_radiance;
     float occlusion = use_ssao == 1 ? texture(ssao, gl_FragCoord.xy / viewport).r : 1.0;
     if (use_rt_ao == 1) occlusion = texelFetch(rt_ao, pixel, 0).r;
-    vec3 ambient = m.albedo * amb * ambient_scale * occlusion;
+    vec3 ambient = m.albedo * amb * ambient_scale * occlusion * m.occlusion;  // glTF occlusion: ambient only
     if (use_rt_indirect == 1) ambient = m.albedo * texelFetch(rt_indirect, pixel, 0).rgb;
     vec3 color = direct + ambient;
     // Schlick's Fresnel blends the reflection with the (non-emitted) local colour

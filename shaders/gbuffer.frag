@@ -4,6 +4,7 @@
 in vec3 v_position;
 in vec3 v_normal;
 in vec2 v_uv;
+in vec4 v_tangent;
 in vec4 v_clip;
 in vec4 v_prev_clip;
 uniform vec3 eye;
@@ -17,10 +18,11 @@ layout(location = 4) out vec4 out_face;       // xyz face normal (faces the eye)
 layout(location = 5) out vec2 out_motion;     // pixels moved since the previous frame
 void main() {
     MaterialSample m = fetch_material(triangle_material(gl_PrimitiveID), v_uv);
+    if (m.cutoff >= 0.0 && m.alpha < m.cutoff) discard;  // alpha MASK (BLEND drawn as MASK)
     vec3 to_eye = eye - v_position;
     vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));
     if (dot(ng, to_eye) < 0.0) ng = -ng;
-    vec3 n = normalize(v_normal);
+    vec3 n = mapped_normal(m, normalize(v_normal), v_tangent);
     if (dot(n, ng) < 0.0) n = -n;  // double-sided: shade the side we see
     out_position = vec4(v_position, dot(v_position - eye, cam_forward));
     out_normal = vec4(n, m.roughness);

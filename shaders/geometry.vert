@@ -3,17 +3,20 @@
 in vec3 in_position;
 in vec3 in_normal;
 in vec2 in_uv;
+in vec4 in_tangent;  // (0, 0, 0, 1) where the scene has no normal maps
 uniform mat4 view_proj;
 uniform mat4 prev_view_proj;
 out vec3 v_position;
 out vec3 v_normal;
 out vec2 v_uv;
+out vec4 v_tangent;
 out vec4 v_clip;
 out vec4 v_prev_clip;
 void main() {
     v_position = in_position;
     v_normal = in_normal;
     v_uv = in_uv;
+    v_tangent = in_tangent;
     v_clip = view_proj * vec4(in_position, 1.0);
     v_prev_clip = prev_view_proj * vec4(in_position, 1.0);
     gl_Position = v_clip;

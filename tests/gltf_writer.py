@@ -86,3 +86,65 @@ def write_glb(path, doc, blob):
     body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
     path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
     return path
+
+
+def _data_uri_png(rgba: np.ndarray) -> str:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(rgba.astype(np.uint8)).save(buf, format="PNG")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def textured_scene(materials: list, textures: list, quads: list, lights: list, camera=None):
+    """A glTF document of textured quads: quads are (centre, size, material index, facing)
+    with facing "up" (+Y) or "down" (-Y); textures: H x W x C uint8 arrays (RGB or RGBA);
+    materials: glTF material objects referring to them by index; lights: KHR_lights_punctual
+    objects with an added "node" dict (translation/rotation). Each quad has uvs (0,0)..(1,1)
+    over x and z and a tangent along +x. Returns the document (buffers as data URIs)."""
+    pos, nrm, uv, tan, idx, prims = [], [], [], [], [], []
+    for k, (centre, size, mat, facing) in enumerate(quads):
+        cx, cy, cz = centre
+        h = size / 2
+        p = np.array([[cx - h, cy, cz - h], [cx + h, cy, cz - h], [cx + h, cy, cz + h], [cx - h, cy, cz + h]], np.float32)
+        y = 1.0 if facing == "up" else -1.0
+        tri = [0, 2, 1, 0, 3, 2] if facing == "up" else [0, 1, 2, 0, 2, 3]
+        pos.append(p)
+        nrm.append(np.tile([0, y, 0], (4, 1)).astype(np.float32))
+        uv.append(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32))
+        tan.append(np.tile([1, 0, 0, 1], (4, 1)).astype(np.float32))
+        idx.append(np.array(tri, np.uint32))
+        prims.append(mat)
+    blob, views, accessors, meshes = b"", [], [], []
+    for k in range(len(quads)):
+        for arr, kind in ((pos[k], "VEC3"), (nrm[k], "VEC3"), (uv[k], "VEC2"), (tan[k], "VEC4"), (idx[k], "SCALAR")):
+            views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": arr.nbytes})
+            acc = {"bufferView": len(views) - 1, "componentType": 5125 if arr.dtype == np.uint32 else 5126,
+                   "count": int(arr.shape[0]), "type": kind}
+            if kind == "VEC3" and len(accessors) % 5 == 0:
+                acc["min"], acc["max"] = arr.min(0).tolist(), arr.max(0).tolist()
+            accessors.append(acc)
+            blob += arr.tobytes()
+        a = 5 * k
+        meshes.append({"primitives": [{"attributes": {"POSITION": a, "NORMAL": a + 1, "TEXCOORD_0": a + 2,
+                                                      "TANGENT": a + 3}, "indices": a + 4, "material": prims[k]}]})
+    nodes = [{"mesh": k} for k in range(len(quads))]
+    for k, light in enumerate(lights):
+        light = dict(light)
+        nodes.append({**light.pop("node"), "extensions": {"KHR_lights_punctual": {"light": k}}})
+        lights[k] = light
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": list(range(len(nodes)))}], "nodes": nodes,
+           "meshes": meshes, "materials": materials, "accessors": accessors, "bufferViews": views,
+           "buffers": [{"byteLength": len(blob),
+                        "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
+           "images": [{"uri": _data_uri_png(t)} for t in textures],
+           "textures": [{"source": k} for k in range(len(textures))],
+           "extensionsUsed": ["KHR_lights_punctual"],
+           "extensions": {"KHR_lights_punctual": {"lights": lights}}}
+    if not textures:
+        del doc["images"], doc["textures"]
+    if camera is not None:
+        doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": camera[2], "znear": 0.01}}]
+        doc["nodes"].append({"camera": 0, "translation": list(camera[0]), "rotation": list(camera[1])})
+        doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+    return doc

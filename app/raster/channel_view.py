@@ -1,4 +1,4 @@
-"""G-buffer channel views: `--pass albedo|normal|position|depth|roughness|emissive|motion`."""
+"""G-buffer channel views: `--pass albedo|normal|position|depth|roughness|metallic|emissive|motion`."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,13 +7,13 @@ from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 from core.passes import Pass
 
-CHANNEL_VIEWS = ("albedo", "normal", "position", "depth", "roughness", "emissive", "motion")
+CHANNEL_VIEWS = ("albedo", "normal", "position", "depth", "roughness", "emissive", "motion", "metallic")
 SOURCES = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face", "g_motion")
 
 
 def display_mapping(channel: str, scene, camera) -> tuple | None:
     """How a data channel is shown: value * scale + bias (None: shown as radiance)."""
-    if channel in ("albedo", "roughness"):
+    if channel in ("albedo", "roughness", "metallic"):
         return (1, 1, 1), (0, 0, 0)
     if channel == "normal":
         return (0.5, 0.5, 0.5), (0.5, 0.5, 0.5)

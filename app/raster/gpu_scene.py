@@ -1,5 +1,5 @@
 """The scene's GPU copy: vertex buffers, per-triangle material ids, the material table,
-base-colour textures as one array, the environment cube map and the light list."""
+every texture layer as one array, the environment cube map and the light list."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,7 +7,7 @@ import numpy as np
 from app.gl_context import program, software_gl
 from scenes.model import Environment, Scene
 
-MAT_TEXELS = 3
+MAT_TEXELS = 4
 TRI_TEX_WIDTH = 4096
 MAX_LIGHTS = 128
 KIND = {"point": 0, "spot": 1, "directional": 2, "proxy": 3}
@@ -40,7 +40,7 @@ def emissive_proxy_lights(scene: Scene) -> list[dict]:
         if total <= 0:
             continue
         normal = cross / np.maximum(2 * area, 1e-20)[:, None]
-        le = np.array([scene.materials[m].emissive for m in scene.material_ids[tris]], np.float64)
+        le = scene.triangle_emission()[tris].astype(np.float64)
         pos = (p.mean(axis=1) * area[:, None]).sum(0) / total
         nsum = (normal * area[:, None]).sum(0)
         flat = float(np.linalg.norm(nsum) / total)
@@ -74,6 +74,7 @@ class GpuScene:
         self.vbo_pos = ctx.buffer(scene.positions.astype("f4").tobytes())
         self.vbo_nrm = ctx.buffer(scene.normals.astype("f4").tobytes())
         self.vbo_uv = ctx.buffer(scene.uvs.astype("f4").tobytes())
+        self.vbo_tan = ctx.buffer(scene.tangents.astype("f4").tobytes()) if scene.tangents is not None else None
         self.ibo = ctx.buffer(scene.indices.astype("i4").tobytes())
         t = scene.triangle_count
         rows = (t + TRI_TEX_WIDTH - 1) // TRI_TEX_WIDTH
@@ -89,32 +90,37 @@ class GpuScene:
         self.proxies = emissive_proxy_lights(scene)
 
     def _upload_materials(self) -> None:
+        """The material table (MAT_TEXELS RGBA32F texels a material: base colour; emission and
+        base layer; roughness, metallic, double-sided, wrap; ORM, normal and emission layers and
+        the alpha cutoff) and every texture layer (Material.layers) as one RGBA16F array."""
         ctx, mats = self.ctx, self.scene.materials
-        textured = [m for m in mats if m.texture is not None]
-        size = 1
-        for m in textured:
-            size = max(size, m.texture.shape[0], m.texture.shape[1])
-        size = int(min(1024, 2 ** int(np.ceil(np.log2(size))))) if textured else 1
-        layers = np.zeros((max(len(textured), 1), size, size, 4), np.float32)
+        layers_in = [tex for m in mats for tex in m.layers() if tex is not None]
+        size = max([1] + [max(t.shape[0], t.shape[1]) for t in layers_in])
+        size = int(min(1024, 2 ** int(np.ceil(np.log2(size))))) if layers_in else 1
+        layers = np.zeros((max(len(layers_in), 1), size, size, 4), np.float16)
         table = np.zeros((len(mats) * MAT_TEXELS, 4), np.float32)
-        layer = 0
+        count = 0
         for k, m in enumerate(mats):
-            tex_layer = -1.0
-            if m.texture is not None:
-                h, w = m.texture.shape[:2]
+            index = []
+            for tex in m.layers():
+                if tex is None:
+                    index.append(-1.0)
+                    continue
+                h, w, c = tex.shape
                 yi = (np.arange(size) * h // size)[:, None]
                 xi = (np.arange(size) * w // size)[None, :]
-                layers[layer, :, :, :3] = m.texture[yi, xi, :3]
-                layers[layer, :, :, 3] = 1.0
-                tex_layer = float(layer)
-                layer += 1
+                layers[count, :, :, 3] = 1.0
+                layers[count, :, :, :min(c, 4)] = tex[yi, xi, :4]
+                index.append(float(count))
+                count += 1
             table[k * MAT_TEXELS + 0] = m.base_color[:4] if len(m.base_color) >= 4 else (*m.base_color, 1.0)
-            table[k * MAT_TEXELS + 1] = (*m.emissive, tex_layer)
-            table[k * MAT_TEXELS + 2] = (m.roughness, m.metallic, float(m.double_sided), 0.0)
+            table[k * MAT_TEXELS + 1] = (*m.emissive, index[0])
+            table[k * MAT_TEXELS + 2] = (m.roughness, m.metallic, float(m.double_sided), m.wrap[0] + 3 * m.wrap[1])
+            table[k * MAT_TEXELS + 3] = (index[1], index[2], index[3], m.alpha_cutoff if m.alpha_tested else -1.0)
+        self.alpha_tested = any(m.alpha_tested for m in mats)
         self.material_table = ctx.texture((table.shape[0], 1), 4, table.tobytes(), dtype="f4")
         self.material_table.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers.astype("f2").tobytes(),
-                                          dtype="f2")
+        self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers.tobytes(), dtype="f2")
         self.textures.build_mipmaps()
         self.textures.filter = (ctx.LINEAR_MIPMAP_LINEAR, ctx.LINEAR)
         # anisotropic filtering on hardware GL only: llvmpipe's is pathologically slow where the
@@ -141,6 +147,8 @@ class GpuScene:
                     content.append((self.vbo_nrm, "3f", "in_normal"))
                 if "in_uv" in prog:
                     content.append((self.vbo_uv, "2f", "in_uv"))
+                if "in_tangent" in prog and self.vbo_tan is not None:  # else GL's default (0, 0, 0, 1)
+                    content.append((self.vbo_tan, "4f", "in_tangent"))
             self._vaos[key] = (prog, self.ctx.vertex_array(prog, content, index_buffer=self.ibo, index_element_size=4))
         return self._vaos[key]
 
@@ -169,7 +177,7 @@ class GpuScene:
         return self.env_cube, self.ambient_lut
 
     def release(self) -> None:
-        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.ibo, self.tri_materials, self.material_table,
+        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.ibo, self.tri_materials, self.material_table,
                     self.textures, self.env_cube, self.ambient_lut):
             if obj is not None:
                 obj.release()

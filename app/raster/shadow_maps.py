@@ -96,7 +96,11 @@ class ShadowMapPass(Pass):
             frame.channels["sun_shadow"] = self.sun_tex
             frame.channels["point_shadow"] = self.point_tex
             return info
-        prog, vao = frame.gpu.vao("depth_only.vert", "depth_only.frag", with_attributes=False)
+        if frame.gpu.alpha_tested:  # masked materials cast shadows only where they are not cut away
+            prog, vao = frame.gpu.vao("depth_alpha.vert", "depth_alpha.frag")
+            frame.gpu.bind_materials(prog)
+        else:  # the plain depth shader: no texture state, so no new shader variants per scene
+            prog, vao = frame.gpu.vao("depth_only.vert", "depth_only.frag", with_attributes=False)
         suns = [k for k, li in enumerate(lights) if li.kind == "directional"]
         with frame.profiler.gpu(ctx, "shadow_maps"):
             ctx.enable(ctx.DEPTH_TEST)

@@ -7,6 +7,7 @@ import numpy as np
 
 from rt.backend import AUX_CHANNEL, Backend, FrameInputs
 from rt.embree import ao, gi, reference, reflections, shadows
+from rt.embree.alpha import AlphaData
 from rt.embree.frame import RtFrame
 from rt.embree.gbuffer import from_raster, trace_primary
 from rt.embree.shading import SceneData
@@ -35,7 +36,8 @@ class EmbreeBackend(Backend):
     def set_scene(self, scene) -> None:
         self.close()
         self.data = SceneData(scene)
-        self.tracer = EmbreeTracer(scene.positions, scene.indices, threads=self.threads)
+        alpha = AlphaData(self.data) if self.data.has_alpha else None  # masked materials: the any-hit filter
+        self.tracer = EmbreeTracer(scene.positions, scene.indices, threads=self.threads, alpha=alpha)
 
     def begin_frame(self, inputs: FrameInputs) -> None:
         self.inputs = inputs
@@ -56,6 +58,7 @@ class EmbreeBackend(Backend):
         rf, inputs = self.frame, self.inputs
         gb, s = rf.gb, rf.gb.surface
         values = {"albedo": s.albedo, "normal": s.n, "position": s.p, "roughness": s.roughness[:, None],
+                  "metallic": s.metallic[:, None],
                   "emissive": s.emissive, "depth": gb.depth[gb.index][:, None]}
         if channel == "motion":
             values["motion"] = inputs.motion(s.p, gb.index)

@@ -24,7 +24,7 @@ class SceneArgs(structref.StructRefProxy):
 
 
 structref.define_proxy(SceneArgs, SceneArgsType, [
-    "mesh",  # (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, tex_data)
+    "mesh",  # SceneData.mesh_args: corners, face normals, material constants, texture layers
     "lights",  # (analytic, emitters, guide, count): raygen.direct_block's
     "eps",  # ray offset scale (raygen.offset)
     "far",  # the length of rays to a sun or the sky

@@ -18,9 +18,14 @@ from numba.core import cgutils
 from numba.core import types as nbtypes
 from numba.extending import intrinsic
 
+from rt.embree import textures
 from rt.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
+from rt.mesh import LAYER_BASE, LAYER_EMISSION, LAYER_ORM
 
 TWO_PI = 2.0 * math.pi
+# 8-bit sRGB code -> linear value (the packed G-buffer's albedo, shaders/gbuffer_pack.frag)
+_CODES = np.arange(256, dtype=np.float64) / 255.0
+SRGB_DECODE = np.where(_CODES <= 0.04045, _CODES / 12.92, ((_CODES + 0.055) / 1.055) ** 2.4).astype(np.float32)
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 M1 = np.uint64(0xBF58476D1CE4E5B9)
 M2 = np.uint64(0x94D049BB133111EB)
@@ -116,10 +121,11 @@ def uniforms(keys, dim0, k, out):
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, roughness, metallic, emissive,
-               tex_offset, tex_w, tex_h, tex_data, P, N, NG, albedo, rough, metal, emis):
-    """Surface data at the hits of rays sel[k] (written at k): position, normals facing the ray,
-    textured albedo, material. corners: per triangle its 3 vertex normals, 3 uvs and material
-    (SceneData.corners), so an incoherent hit reads one row of mesh data, not one per array."""
+               tex_offset, tex_w, tex_h, wrap, tex_data, P, N, NG, albedo, rough, metal, emis):
+    """Surface data at the hits of rays sel[k] (written at k): position, normals facing the ray
+    (the shading normal normal-mapped), textured albedo, roughness, metallic and emission.
+    corners: per triangle its 3 vertex normals, 3 uvs, material and tangents (rt/mesh.py), so
+    an incoherent hit reads one row of mesh data, not one per array."""
     n = sel.shape[0]
     for k in prange(n):
         if k + AHEAD < n:
@@ -137,37 +143,32 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
         if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
             gx, gy, gz = -gx, -gy, -gz
         NG[k, 0], NG[k, 1], NG[k, 2] = gx, gy, gz
+        m = int(c[15])
+        u, v = textures.hit_uv(c, w1, w2)
         nx = w0 * c[0] + w1 * c[3] + w2 * c[6]
         ny = w0 * c[1] + w1 * c[4] + w2 * c[7]
         nz = w0 * c[2] + w1 * c[5] + w2 * c[8]
         ln = math.sqrt(nx * nx + ny * ny + nz * nz)
         if ln < 1e-20:
             nx, ny, nz, ln = gx, gy, gz, 1.0
-        nx, ny, nz = nx / ln, ny / ln, nz / ln
+        nx, ny, nz = textures.normal_mapped(c, m, w0, w1, w2, nx / ln, ny / ln, nz / ln, u, v, tex_offset, tex_w,
+                                            tex_h, wrap, tex_data)
         if nx * gx + ny * gy + nz * gz < 0:
             nx, ny, nz = -nx, -ny, -nz
         N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
-        m = int(c[15])
-        off = tex_offset[m]
-        if off >= 0:
-            u = w0 * c[9] + w1 * c[11] + w2 * c[13]
-            v = w0 * c[10] + w1 * c[12] + w2 * c[14]
-            tw, th = tex_w[m], tex_h[m]
-            x = u * tw - 0.5
-            y = v * th - 0.5
-            x0, y0 = math.floor(x), math.floor(y)
-            fx, fy = x - x0, y - y0
-            xa, ya = int(x0) % tw, int(y0) % th
-            xb, yb = (xa + 1) % tw, (ya + 1) % th
-            for a in range(3):
-                top = tex_data[off + ya * tw + xa, a] * (1 - fx) + tex_data[off + ya * tw + xb, a] * fx
-                bot = tex_data[off + yb * tw + xa, a] * (1 - fx) + tex_data[off + yb * tw + xb, a] * fx
-                albedo[k, a] = base_color[m, a] * (top * (1 - fy) + bot * fy)
+        found, r, g, b, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_BASE, u, v)
+        if found:
+            albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
         else:
             albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0], base_color[m, 1], base_color[m, 2]
-        rough[k] = roughness[m]
-        metal[k] = metallic[m]
-        emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
+        found, _, r, g, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_ORM, u, v)
+        rough[k] = r if found else roughness[m]
+        metal[k] = g if found else metallic[m]
+        found, r, g, b, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_EMISSION, u, v)
+        if found:
+            emis[k, 0], emis[k, 1], emis[k, 2] = r, g, b
+        else:
+            emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -282,8 +283,8 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
             G[PX, j], G[PY, j], G[PZ, j], G[NX, j], G[NY, j], G[NZ, j] = px, py, pz, nx, ny, nz
             G[GX, j], G[GY, j], G[GZ, j] = gx, gy, gz
             c = geometry[r, x, 3]
-            for a in range(3):
-                albedo[j, a] = np.float32((c >> (8 * a)) & 0xFF) * np.float32(1 / 255)
+            for a in range(3):  # stored sRGB-encoded (gbuffer_pack.frag): 8 bits keep dark colours
+                albedo[j, a] = SRGB_DECODE[(c >> (8 * a)) & 0xFF]
             metal[j] = np.float32((c >> 24) & 0xFF) * np.float32(1 / 255)
             m0, m1 = material[r, x, 0], material[r, x, 1]
             emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)

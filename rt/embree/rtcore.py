@@ -71,7 +71,9 @@ def load():
                             ("rtcSetNewGeometryBuffer", P, [P, ctypes.c_int, ctypes.c_uint, ctypes.c_int,
                                                             ctypes.c_size_t, ctypes.c_size_t]),
                             ("rtcCommitGeometry", None, [P]), ("rtcAttachGeometry", ctypes.c_uint, [P, P]),
-                            ("rtcReleaseGeometry", None, [P])):
+                            ("rtcReleaseGeometry", None, [P]), ("rtcSetGeometryUserData", None, [P, P]),
+                            ("rtcSetGeometryIntersectFilterFunction", None, [P, P]),
+                            ("rtcSetGeometryOccludedFilterFunction", None, [P, P])):
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
     _lib = lib
@@ -85,9 +87,10 @@ _intersect1 = types.ExternalFunction("rtcIntersect1", types.void(types.uintp, ty
 
 class EmbreeScene:
     """One triangle mesh, committed (BVH built) on creation; `handle` is the RTCScene that the
-    kernels below take."""
+    kernels below take. alpha (rt/embree/alpha.AlphaData): masked materials, whose cut-away
+    hits a filter function rejects for every kind of ray."""
 
-    def __init__(self, positions: np.ndarray, indices: np.ndarray):
+    def __init__(self, positions: np.ndarray, indices: np.ndarray, alpha=None):
         positions = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
         indices = np.ascontiguousarray(indices, np.uint32).reshape(-1, 3)
         load()
@@ -106,6 +109,11 @@ class EmbreeScene:
             ctypes.memmove(vb, positions.ctypes.data, positions.nbytes)
         if len(indices):
             ctypes.memmove(ib, indices.ctypes.data, indices.nbytes)
+        self.alpha = alpha
+        if alpha is not None:
+            _lib.rtcSetGeometryUserData(geometry, alpha.pointer)
+            _lib.rtcSetGeometryIntersectFilterFunction(geometry, alpha.function)
+            _lib.rtcSetGeometryOccludedFilterFunction(geometry, alpha.function)
         _lib.rtcCommitGeometry(geometry)
         _lib.rtcAttachGeometry(self.scene, geometry)
         _lib.rtcReleaseGeometry(geometry)

@@ -115,8 +115,8 @@ class EmbreeTracer(Tracer):
     # chunks_per_thread: 4 keeps threads busy when some chunks are cheap (sky rays) without
     # per-call overhead from tiny chunks (report/HISTORY.md has the measurements).
     def __init__(self, positions: np.ndarray, indices: np.ndarray, threads: int | None = None,
-                 chunks_per_thread: int = 4, min_chunk: int = 4096):
-        self.scene = embree.EmbreeScene(positions, indices)  # the BVH is built here
+                 chunks_per_thread: int = 4, min_chunk: int = 4096, alpha=None):
+        self.scene = embree.EmbreeScene(positions, indices, alpha)  # the BVH is built here
         self.handle = self.scene.handle
         self.threads = threads or default_threads()
         self.chunks_per_thread = chunks_per_thread

@@ -135,8 +135,7 @@ class SlangBackend(Backend):
         pipeline = self._pipeline("primary", "primary.slang", "primary_rays", ("primary_miss",), "primary_hit")
 
         def bind(c):
-            c["g_scene"] = self.scene.tlas
-            self.scene.bind_mesh(c["g_mesh"])
+            self.scene.bind_trace(c)
             self._bind_gbuffer(c["g_gbuffer"])
             c["g_width"], c["g_height"] = w, h
             c["g_eye"] = np.asarray(cam.eye, np.float32)
@@ -218,10 +217,8 @@ class SlangBackend(Backend):
         values = self._options(effect, inputs.options)
 
         def bind(c):
-            c["g_scene"] = self.scene.tlas
+            self.scene.bind_trace(c)
             self._bind_gbuffer(c["g_gbuffer"])
-            if effect != "ao":  # the others import paths.slang: the mesh and the lights
-                self.scene.bind_mesh(c["g_mesh"])
             self._bind_log(c)
             if effect != "ao":
                 self.scene.bind_lights(c["g_lights"])
@@ -262,7 +259,7 @@ class SlangBackend(Backend):
         sink = self._buffer("log.sink", 1, 4)
 
         def bind(c):
-            c["g_scene"] = self.scene.tlas
+            self.scene.bind_trace(c)
             c["g_ray_log"], c["g_log_count"], c["g_log_capacity"] = log, self._log_count, 0
             c["g_count"], c["g_row"], c["g_sink"] = count, row, sink
 
@@ -299,7 +296,8 @@ class SlangBackend(Backend):
         read = {name: buf.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4) for name, buf in self.gbuffer.items()}
         covered = read["position"][:, 3] > 0
         values = {"albedo": read["albedo"][:, :3], "normal": read["normal"][:, :3], "position": read["position"][:, :3],
-                  "roughness": read["normal"][:, 3:4], "emissive": read["emissive"][:, :3],
+                  "roughness": read["normal"][:, 3:4], "metallic": read["true_normal"][:, 3:4],
+                  "emissive": read["emissive"][:, :3],
                   "depth": read["albedo"][:, 3:4]}
         if channel == "motion":
             values["motion"] = inputs.motion(read["position"][:, :3], np.arange(n))

@@ -35,17 +35,16 @@ class DeviceScene:
 
         self.vertices = buffer(a.positions.astype(np.float32), build)
         self.indices = buffer(a.indices.astype(np.uint32), build)
-        self.corners = buffer(a.corners.reshape(-1, 4))  # 4 float4 a triangle (shaders/rt/common.slang)
+        self.corners = buffer(a.corners.reshape(-1, 4))  # 4 (7 with tangents) float4 a triangle (common.slang)
+        self.corner_rows = a.corners.shape[1] // 4
         self.face_normals = buffer(np.c_[a.face_normals, np.zeros(len(a.face_normals), np.float32)])
-        materials = np.zeros((len(a.base_color), 12), np.float32)  # common.slang: Material
-        materials[:, 0:3] = a.base_color
-        materials[:, 3] = np.where(a.tex_offset >= 0, 0, -1)
-        materials[:, 4:7] = a.emissive
-        materials[:, 7] = a.roughness
-        materials[:, 8], materials[:, 9], materials[:, 10] = a.tex_offset, a.tex_w, a.tex_h
-        materials[:, 11] = a.metallic
+        materials = np.zeros((len(a.base_color), 24), np.float32)  # common.slang: Material
+        materials[:, 0:3], materials[:, 3] = a.base_color, a.base_alpha
+        materials[:, 4:7], materials[:, 7] = a.emissive, a.roughness
+        materials[:, 8], materials[:, 9], materials[:, 10:12] = a.metallic, a.alpha_cutoff, a.wrap
+        materials[:, 12:16], materials[:, 16:20], materials[:, 20:24] = a.tex_offset, a.tex_w, a.tex_h
         self.materials = buffer(materials)
-        self.texels = buffer(np.c_[a.tex_data, np.zeros(len(a.tex_data), np.float32)])
+        self.texels = buffer(a.tex_data)
         self._upload_lights(buffer)
 
     def _upload_lights(self, buffer) -> None:
@@ -117,3 +116,11 @@ class DeviceScene:
         cursor["face_normals"] = self.face_normals
         cursor["materials"] = self.materials
         cursor["texels"] = self.texels
+        cursor["corner_rows"] = self.corner_rows
+
+    def bind_trace(self, cursor) -> None:
+        """What trace.slang's rays need: the scene, its mesh (masked materials' alpha) and
+        whether any material is masked."""
+        cursor["g_scene"] = self.tlas
+        self.bind_mesh(cursor["g_mesh"])
+        cursor["g_alpha"] = int(self.arrays.has_alpha)

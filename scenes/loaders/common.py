@@ -32,10 +32,14 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
-def decode_image(data: bytes, what: str) -> np.ndarray | None:
-    """sRGB-encoded image bytes -> H x W x 3 linear float32, or None (with a warning) if the
-    image cannot be decoded or is larger than MAX_IMAGE_PIXELS or the free memory: the header's
-    size is checked before any pixel is decoded."""
+MAX_TEXTURE_SIDE = 1024  # textures are downsampled to this at load: what the GL texture arrays hold too
+
+
+def decode_image(data: bytes, what: str, srgb: bool = True, alpha: bool = False) -> np.ndarray | None:
+    """Image bytes -> H x W x 3 (or 4 with alpha) float32 in [0, 1], colour channels decoded
+    from sRGB when `srgb` (alpha never is), downsampled to at most MAX_TEXTURE_SIDE; or None
+    (with a warning) if the image cannot be decoded or is larger than MAX_IMAGE_PIXELS or the
+    free memory: the header's size is checked before any pixel is decoded."""
     from PIL import Image
 
     try:
@@ -49,12 +53,18 @@ def decode_image(data: bytes, what: str) -> np.ndarray | None:
                 warnings.warn(f"{what}: a {w}x{h} image is larger than rtlab decodes ({MAX_IMAGE_PIXELS:,} "
                               "pixels); using the base colour", stacklevel=2)
                 return None
-            rgb = np.asarray(img.convert("RGB"), np.float32) / 255.0
+            img = img.convert("RGBA" if alpha else "RGB")
+            if max(w, h) > MAX_TEXTURE_SIDE:
+                scale = MAX_TEXTURE_SIDE / max(w, h)
+                img = img.resize((max(1, round(w * scale)), max(1, round(h * scale))), Image.BOX)
+            pixels = np.asarray(img, np.float32) / 255.0
     except Exception as e:  # noqa: BLE001 - Pillow's decoders raise many kinds of error for broken files
         warnings.warn(f"{what}: cannot decode image ({type(e).__name__}: {str(e)[:120]}); using the base colour",
                       stacklevel=2)
         return None
-    return srgb_to_linear(rgb)
+    if srgb:
+        pixels[..., :3] = srgb_to_linear(pixels[..., :3])
+    return pixels
 
 
 def compute_normals(positions: np.ndarray, tris: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from core.errors import UserError
 from scenes.loaders.checks import Checker, read_regular
 from scenes.loaders.common import check_memory, compute_normals, decode_image, safe_child
 from scenes.loaders.gltf_checks import WIDTH, check_document
+from scenes.loaders.gltf_materials import UvRule, generate_tangents, read_material, wrap_modes
 from scenes.model import Environment, Light, Material, Scene, View
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -103,7 +104,8 @@ class _Reader:
     def __init__(self, doc: dict, bin_chunk: bytes | None, path: Path):
         self.doc, self.bin, self.path = doc, bin_chunk, path
         self._buffers: dict[int, bytes] = {}
-        self._textures: dict[int, np.ndarray | None] = {}
+        self._textures: dict[tuple, np.ndarray | None] = {}
+        self._warned: set = set()
 
     # -- raw data --------------------------------------------------------------------------
     def _uri_bytes(self, uri: str) -> bytes:
@@ -159,10 +161,17 @@ class _Reader:
             arr = arr.astype(np.float32) / np.iinfo(dtype).max
         return arr
 
-    def texture(self, index: int) -> np.ndarray | None:
-        """A texture as linear RGB, or None (with a warning naming the file) if it cannot be
-        read or decoded: the material then renders with its factors, as other viewers do."""
-        if index not in self._textures:
+    def wrap(self, index: int) -> tuple:
+        """The wrap modes (u, v) of texture `index`'s sampler (scenes.model.WRAP_*)."""
+        sampler = self.doc["textures"][index].get("sampler")
+        return wrap_modes(self.doc["samplers"][sampler] if sampler is not None else {})
+
+    def texture(self, index: int, srgb: bool = True, alpha: bool = False) -> np.ndarray | None:
+        """A texture as float32 in [0, 1] (colour decoded from sRGB when `srgb`; RGBA when
+        `alpha`), or None (with a warning naming the file) if it cannot be read or decoded:
+        the material then renders with its factors, as other viewers do."""
+        key = (index, srgb, alpha)
+        if key not in self._textures:
             src = self.doc["textures"][index].get("source")
             img = self.doc["images"][src] if src is not None else {}
             what = f"{self.path.name}: texture {index}"
@@ -179,32 +188,21 @@ class _Reader:
                         raise
                     warnings.warn(f"{what}: {str(e).split(': ', 1)[-1]}; the material renders without it",
                                   stacklevel=2)
-            self._textures[index] = decode_image(data, what) if data else None
-        return self._textures[index]
+            self._textures[key] = decode_image(data, what, srgb, alpha) if data else None
+        return self._textures[key]
 
     # -- scene -----------------------------------------------------------------------------
-    def materials(self) -> list[Material]:
-        out = []
+    def materials(self) -> tuple[list[Material], list[UvRule]]:
+        mats, rules = [], []
         for k, m in enumerate(self.doc.get("materials", [])):
-            pbr = m.get("pbrMetallicRoughness", {})
-            strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
-            emissive = np.asarray(m.get("emissiveFactor", (0, 0, 0)), float) * float(strength)
-            if not np.isfinite(emissive).all() or emissive.max() > 3.4e38:
+            mat, rule = read_material(self, k, m)
+            if not np.isfinite(np.float32(max(mat.emissive))):
                 raise UserError(f"{self.path.name}: materials[{k}]: emissive radiance is not a finite float32")
-            tex = None
-            if "baseColorTexture" in pbr:
-                tex = self.texture(pbr["baseColorTexture"]["index"])
-            out.append(Material(
-                name=m.get("name", f"material_{k}"),
-                base_color=tuple(min(float(c), 1.0) for c in pbr.get("baseColorFactor", (1, 1, 1, 1))),
-                texture=tex,
-                roughness=float(pbr.get("roughnessFactor", 1.0)),
-                metallic=float(pbr.get("metallicFactor", 1.0)),
-                emissive=tuple(float(e) for e in emissive),
-                double_sided=bool(m.get("doubleSided", False)),
-            ))
-        out.append(Material("gltf_default", (1, 1, 1, 1), None, 1.0, 1.0))  # glTF's default material
-        return out
+            mats.append(mat)
+            rules.append(rule)
+        mats.append(Material("gltf_default", (1, 1, 1, 1), None, 1.0, 1.0))  # glTF's default material
+        rules.append(UvRule())
+        return mats, rules
 
     def _drawn_nodes(self, roots: list[int]) -> list[int]:
         """Every node under the roots (the nodes form trees: check_document)."""
@@ -234,9 +232,9 @@ class _Reader:
     def scene(self, roots: list[int]) -> Scene:
         doc = self.doc
         check_memory(*self.estimate(self._drawn_nodes(roots)), self.path.name)
-        mats = self.materials()
+        mats, rules = self.materials()
         default_mat = len(mats) - 1
-        pos, nrm, uvs, idx, mid = [], [], [], [], []
+        pos, nrm, uvs, idx, mid, tangents = [], [], [], [], [], []
         lights, views = [], {}
         light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
         count = 0
@@ -251,19 +249,29 @@ class _Reader:
                 for prim in doc["meshes"][node["mesh"]]["primitives"]:
                     if prim.get("mode", 4) != 4:
                         continue  # points and lines carry no surface
-                    p, n, t, tri = self._primitive(prim, node["mesh"])
+                    material = prim.get("material", default_mat)
+                    p, n, t, tan, tri = self._primitive(prim, node["mesh"], rules[material])
                     wp = (p @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
                     if not np.isfinite(wp).all():
                         raise UserError(f"{self.path.name}: non-finite vertex positions in mesh {node['mesh']} "
                                         f"(node {node_index})")
                     wn = compute_normals(wp, tri) if n is None else n @ _normal_matrix(m[:3, :3])
+                    if mats[material].normal_map is None:
+                        tan = None
+                    elif tan is None:
+                        tan = generate_tangents(wp, wn, t, tri)
+                    else:  # the file's: xyz moves with the mesh, w keeps the uv handedness
+                        xyz = tan[:, :3] @ m[:3, :3].T
+                        sign = -1.0 if np.linalg.det(m[:3, :3]) < 0 else 1.0
+                        tan = np.concatenate([xyz, tan[:, 3:4] * sign], 1).astype(np.float32)
                     if np.linalg.det(m[:3, :3]) < 0:
                         tri = tri[:, [0, 2, 1]]
                     pos.append(wp)
                     nrm.append(wn)
                     uvs.append(t)
+                    tangents.append(tan if tan is not None else np.zeros((p.shape[0], 4), np.float32))
                     idx.append(tri + count)
-                    mid.append(np.full(tri.shape[0], prim.get("material", default_mat), np.int32))
+                    mid.append(np.full(tri.shape[0], material, np.int32))
                     count += p.shape[0]
             ext = node.get("extensions", {}).get("KHR_lights_punctual")
             if ext is not None:
@@ -277,11 +285,14 @@ class _Reader:
         scene = Scene(self.path.stem, np.concatenate(pos), np.concatenate(nrm), np.concatenate(uvs),
                       np.concatenate(idx), np.concatenate(mid), mats, lights, Environment("black"), views,
                       str(self.path))
+        if any(mat.normal_map is not None for mat in mats):
+            scene.tangents = np.concatenate(tangents)
         scene.validate()
         return scene
 
-    def _primitive(self, prim: dict, mesh: int):
-        """Positions, normals (or None), uvs and triangles of a triangle primitive."""
+    def _primitive(self, prim: dict, mesh: int, rule: UvRule):
+        """Positions, normals (or None), uvs (the material's set, transformed), tangents (or
+        None) and triangles of a triangle primitive."""
         attrs = prim["attributes"]
         p = self.accessor(attrs["POSITION"]).astype(np.float32)
         if not np.isfinite(p).all():
@@ -296,10 +307,24 @@ class _Reader:
         if tri.size and tri.max() >= p.shape[0]:
             raise UserError(f"{self.path.name}: triangle indices out of range in mesh {mesh}")
         n = self.accessor(attrs["NORMAL"]).astype(np.float32) if "NORMAL" in attrs else None
-        t = self.accessor(attrs["TEXCOORD_0"]).astype(np.float32) if "TEXCOORD_0" in attrs \
-            else np.zeros((p.shape[0], 2), np.float32)
+        uv_name = f"TEXCOORD_{rule.texcoord}"
+        if uv_name in attrs:
+            t = rule.apply(self.accessor(attrs[uv_name]).astype(np.float32))
+        else:
+            if rule.texcoord and "uv" not in self._warned:
+                self._warned.add("uv")
+                warnings.warn(f"{self.path.name}: mesh {mesh} has no {uv_name} for its material's textures",
+                              stacklevel=3)
+            t = np.zeros((p.shape[0], 2), np.float32)
         t = np.where(np.isfinite(t), t, 0.0).astype(np.float32)
-        return p, n, t, tri
+        tan = self.accessor(attrs["TANGENT"]).astype(np.float32) if "TANGENT" in attrs else None
+        if tan is not None and not np.isfinite(tan).all():
+            tan = None  # generated instead
+        if "COLOR_0" in attrs and "color" not in self._warned:
+            self._warned.add("color")
+            warnings.warn(f"{self.path.name}: vertex colours (COLOR_0) are not applied; materials use their "
+                          "base colour and textures", stacklevel=3)
+        return p, n, t, tan, tri
 
     def _camera(self, cam: dict, node: dict, m: np.ndarray, views: dict) -> None:
         name = cam.get("name") or node.get("name") or f"camera_{len(views)}"

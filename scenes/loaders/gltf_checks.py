@@ -11,12 +11,15 @@ from scenes.loaders.checks import Checker
 
 COMPONENTS = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}  # componentType -> bytes
 WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
-SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength"}
+SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"}
+WRAP_MODES = {10497: 0, 33071: 1, 33648: 2}  # REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT -> scenes.model.WRAP_*
 FLOAT, UBYTE, USHORT, UINT = 5126, 5121, 5123, 5125
-ATTRIBUTE_FORMS = {  # attribute -> (accessor type, allowed component types)
-    "POSITION": ("VEC3", {FLOAT}),
-    "NORMAL": ("VEC3", {FLOAT}),
-    "TEXCOORD_0": ("VEC2", {FLOAT, UBYTE, USHORT}),
+ATTRIBUTE_FORMS = {  # attribute -> (accessor types, allowed component types)
+    "POSITION": (("VEC3",), {FLOAT}),
+    "NORMAL": (("VEC3",), {FLOAT}),
+    "TANGENT": (("VEC4",), {FLOAT}),
+    **{f"TEXCOORD_{k}": (("VEC2",), {FLOAT, UBYTE, USHORT}) for k in range(4)},
+    "COLOR_0": (("VEC3", "VEC4"), {FLOAT, UBYTE, USHORT}),
 }
 INDEX_TYPES = {UBYTE, USHORT, UINT}
 
@@ -56,6 +59,10 @@ def check_document(doc, chk: Checker) -> list[int]:
             chk.index(img["bufferView"], n["bufferViews"], f"images[{k}].bufferView")
         elif "uri" in img:
             chk.string(img["uri"], f"images[{k}].uri")
+    for k, smp in enumerate(arrays["samplers"]):
+        for key in ("wrapS", "wrapT"):
+            if key in smp and (not _is_key(smp[key], int) or smp[key] not in WRAP_MODES):
+                chk.fail(f"samplers[{k}].{key}", f"{str(smp[key])[:40]} is not a glTF wrap mode")
     for k, t in enumerate(arrays["textures"]):
         if "source" in t:
             chk.index(t["source"], n["images"], f"textures[{k}].source")
@@ -105,7 +112,15 @@ def _check_accessor(a: dict, k: int, n: dict, chk: Checker) -> None:
 def _check_texture_ref(ref, what: str, n: dict, chk: Checker) -> None:
     ref = chk.mapping(ref, what)
     chk.index(ref.get("index"), n["textures"], f"{what}.index")
-    chk.integer(ref.get("texCoord", 0), f"{what}.texCoord", 0, 31)
+    chk.integer(ref.get("texCoord", 0), f"{what}.texCoord", 0, 3)
+    ext = chk.mapping(ref.get("extensions", {}), f"{what}.extensions")
+    if "KHR_texture_transform" in ext:
+        t = chk.mapping(ext["KHR_texture_transform"], f"{what}.KHR_texture_transform")
+        chk.vector(t.get("offset", [0, 0]), 2, f"{what}.KHR_texture_transform.offset", -1e6, 1e6)
+        chk.number(t.get("rotation", 0), f"{what}.KHR_texture_transform.rotation", -1e6, 1e6)
+        chk.vector(t.get("scale", [1, 1]), 2, f"{what}.KHR_texture_transform.scale", -1e6, 1e6)
+        if "texCoord" in t:
+            chk.integer(t["texCoord"], f"{what}.KHR_texture_transform.texCoord", 0, 3)
 
 
 def _check_material(m: dict, w: str, n: dict, chk: Checker) -> None:
@@ -113,8 +128,20 @@ def _check_material(m: dict, w: str, n: dict, chk: Checker) -> None:
     chk.vector(pbr.get("baseColorFactor", [1, 1, 1, 1]), 4, f"{w}.pbrMetallicRoughness.baseColorFactor", 0.0)
     chk.number(pbr.get("metallicFactor", 1.0), f"{w}.pbrMetallicRoughness.metallicFactor", 0.0, 1.0)
     chk.number(pbr.get("roughnessFactor", 1.0), f"{w}.pbrMetallicRoughness.roughnessFactor", 0.0, 1.0)
-    if "baseColorTexture" in pbr:
-        _check_texture_ref(pbr["baseColorTexture"], f"{w}.pbrMetallicRoughness.baseColorTexture", n, chk)
+    for key in ("baseColorTexture", "metallicRoughnessTexture"):
+        if key in pbr:
+            _check_texture_ref(pbr[key], f"{w}.pbrMetallicRoughness.{key}", n, chk)
+    for key in ("normalTexture", "occlusionTexture", "emissiveTexture"):
+        if key in m:
+            _check_texture_ref(m[key], f"{w}.{key}", n, chk)
+    if "normalTexture" in m:
+        chk.number(m["normalTexture"].get("scale", 1.0), f"{w}.normalTexture.scale", -1e3, 1e3)
+    if "occlusionTexture" in m:
+        chk.number(m["occlusionTexture"].get("strength", 1.0), f"{w}.occlusionTexture.strength", 0.0, 1.0)
+    mode = m.get("alphaMode", "OPAQUE")
+    if mode not in ("OPAQUE", "MASK", "BLEND"):
+        chk.fail(f"{w}.alphaMode", f"{str(mode)[:40]!r} is not OPAQUE, MASK or BLEND")
+    chk.number(m.get("alphaCutoff", 0.5), f"{w}.alphaCutoff", 0.0)
     chk.vector(m.get("emissiveFactor", [0, 0, 0]), 3, f"{w}.emissiveFactor", 0.0)
     ext = chk.mapping(m.get("extensions", {}), f"{w}.extensions")
     strength = chk.mapping(ext.get("KHR_materials_emissive_strength", {}),
@@ -142,9 +169,9 @@ def _check_primitive(prim: dict, w: str, accessors: list, n: dict, chk: Checker)
         if name not in attrs:
             continue
         a = accessors[attrs[name]]
-        if a["type"] != kind or a["componentType"] not in components:
+        if a["type"] not in kind or a["componentType"] not in components:
             chk.fail(f"{w}.attributes.{name}", f"accessor {attrs[name]} is {a['type']} of component type "
-                     f"{a['componentType']}, not {kind} of {sorted(components)}")
+                     f"{a['componentType']}, not {' or '.join(kind)} of {sorted(components)}")
         if a["count"] != count:
             chk.fail(f"{w}.attributes.{name}", f"accessor {attrs[name]} has {a['count']} entries, "
                      f"POSITION has {count}")

@@ -1,0 +1,108 @@
+"""Texture layers at hit points (rt/mesh.py's flat RGBA texel array, one run per material and
+layer): bilinear samples with glTF's wrap modes, the alpha test that cuts masked surfaces
+(every ray's hits go through it: rt/embree/alpha.py), and normal mapping."""
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from rt.mesh import LAYER_BASE, LAYER_NORMAL
+
+UV_LIMIT = 1e6  # texture coordinates are clamped to this before they become texel indices
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def wrap_index(i, n, mode):
+    """Texel index i of n under a wrap mode (scenes.model.WRAP_*: 0 repeat, 1 clamp, 2 mirror)."""
+    if mode == 1:
+        return min(max(i, 0), n - 1)
+    if mode == 2:
+        i = i % (2 * n)
+        return i if i < n else 2 * n - 1 - i
+    return i % n
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def sample(tex_data, off, tw, th, wu, wv, u, v):
+    """Bilinear RGBA sample of the texture at tex_data[off:off + tw * th] (rows top first)."""
+    u = min(max(u, -UV_LIMIT), UV_LIMIT)
+    v = min(max(v, -UV_LIMIT), UV_LIMIT)
+    x = u * tw - 0.5
+    y = v * th - 0.5
+    x0, y0 = math.floor(x), math.floor(y)
+    fx, fy = x - x0, y - y0
+    xa, xb = wrap_index(int(x0), tw, wu), wrap_index(int(x0) + 1, tw, wu)
+    ya, yb = wrap_index(int(y0), th, wv), wrap_index(int(y0) + 1, th, wv)
+    r0, r1 = off + ya * tw, off + yb * tw
+    out0 = out1 = out2 = out3 = 0.0
+    for a in range(4):
+        top = tex_data[r0 + xa, a] * (1 - fx) + tex_data[r0 + xb, a] * fx
+        bot = tex_data[r1 + xa, a] * (1 - fx) + tex_data[r1 + xb, a] * fx
+        value = top * (1 - fy) + bot * fy
+        if a == 0:
+            out0 = value
+        elif a == 1:
+            out1 = value
+        elif a == 2:
+            out2 = value
+        else:
+            out3 = value
+    return out0, out1, out2, out3
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, k, u, v):
+    """(present, RGBA) of material m's layer k at (u, v)."""
+    off = tex_offset[m, k]
+    if off < 0:
+        return False, 0.0, 0.0, 0.0, 0.0
+    r, g, b, a = sample(tex_data, off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
+    return True, r, g, b, a
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hit_uv(c, w1, w2):
+    """The uv at barycentrics (w1, w2) of a triangle's corner row c (rt/mesh.py)."""
+    w0 = 1.0 - w1 - w2
+    return w0 * c[9] + w1 * c[11] + w2 * c[13], w0 * c[10] + w1 * c[12] + w2 * c[14]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def passes_alpha(corners, tex_offset, tex_w, tex_h, wrap, tex_data, cutoff, base_alpha, prim, w1, w2):
+    """False where a masked material is cut away at this hit: alpha (base alpha x texture
+    alpha) below its cutoff."""
+    c = corners[prim]
+    m = int(c[15])
+    if cutoff[m] < 0.0:
+        return True
+    alpha = base_alpha[m]
+    if tex_offset[m, LAYER_BASE] >= 0:
+        u, v = hit_uv(c, w1, w2)
+        alpha *= layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_BASE, u, v)[4]
+    return alpha >= cutoff[m]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex_offset, tex_w, tex_h, wrap, tex_data):
+    """The shading normal (nx, ny, nz: the interpolated unit vertex normal) bent by material
+    m's normal map in the frame of the interpolated vertex tangents (row columns 16..27)."""
+    if tex_offset[m, LAYER_NORMAL] < 0 or c.shape[0] < 28:
+        return nx, ny, nz
+    _, mx, my, mz, _ = layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_NORMAL, u, v)
+    tx = w0 * c[16] + w1 * c[20] + w2 * c[24]
+    ty = w0 * c[17] + w1 * c[21] + w2 * c[25]
+    tz = w0 * c[18] + w1 * c[22] + w2 * c[26]
+    handed = -1.0 if c[19] < 0 else 1.0
+    d = tx * nx + ty * ny + tz * nz  # Gram-Schmidt against the normal
+    tx, ty, tz = tx - d * nx, ty - d * ny, tz - d * nz
+    lt = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if lt < 1e-12:
+        return nx, ny, nz
+    tx, ty, tz = tx / lt, ty / lt, tz / lt
+    bx, by, bz = (ny * tz - nz * ty) * handed, (nz * tx - nx * tz) * handed, (nx * ty - ny * tx) * handed
+    ox, oy, oz = tx * mx + bx * my + nx * mz, ty * mx + by * my + ny * mz, tz * mx + bz * my + nz * mz
+    lo = math.sqrt(ox * ox + oy * oy + oz * oz)
+    if lo < 1e-12:
+        return nx, ny, nz
+    return ox / lo, oy / lo, oz / lo
