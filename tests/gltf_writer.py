@@ -103,10 +103,11 @@ def textured_scene(materials: list, textures: list, quads: list, lights: list, c
     objects with an added "node" dict (translation/rotation). Each quad has uvs (0,0)..(1,1)
     over x and z and a tangent along +x. Returns the document (buffers as data URIs)."""
     pos, nrm, uv, tan, idx, prims = [], [], [], [], [], []
-    for k, (centre, size, mat, facing) in enumerate(quads):
+    for centre, size, mat, facing in quads:
         cx, cy, cz = centre
         h = size / 2
-        p = np.array([[cx - h, cy, cz - h], [cx + h, cy, cz - h], [cx + h, cy, cz + h], [cx - h, cy, cz + h]], np.float32)
+        p = np.array([[cx - h, cy, cz - h], [cx + h, cy, cz - h], [cx + h, cy, cz + h], [cx - h, cy, cz + h]],
+                     np.float32)
         y = 1.0 if facing == "up" else -1.0
         tri = [0, 2, 1, 0, 3, 2] if facing == "up" else [0, 1, 2, 0, 2, 3]
         pos.append(p)

@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 
 from app.options import Options
 from core.errors import UserError
-
 from tests.fuzz_cases import check_load, scene_cases, write_case
 
 CASES = int(os.environ.get("RTLAB_FUZZ_CASES", "200"))

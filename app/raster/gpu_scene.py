@@ -177,8 +177,8 @@ class GpuScene:
         return self.env_cube, self.ambient_lut
 
     def release(self) -> None:
-        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.ibo, self.tri_materials, self.material_table,
-                    self.textures, self.env_cube, self.ambient_lut):
+        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.ibo, self.tri_materials,
+                    self.material_table, self.textures, self.env_cube, self.ambient_lut):
             if obj is not None:
                 obj.release()
         for _, vao in self._vaos.values():
