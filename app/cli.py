@@ -39,12 +39,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--camera", help='a named view or "eye=x,y,z;target=x,y,z;up=x,y,z;fov=DEG"')
     s.add_argument("--out", help="PNG path (default SCENE_PASS.png)")
     s.add_argument("--raw", help="also write the linear image before tone mapping (.npy, float32 HxWx3)")
+    s.add_argument("--compare", metavar="PASS|diff", help="a second pass right of the divider (same camera and "
+                   "options), or diff: FLIP of --pass against the reference path tracer")
+    s.add_argument("--split", type=float, default=0.5, metavar="F", help="the divider at this fraction of the "
+                   "width (default 0.5)")
 
     s = sub.add_parser("view", help="open the interactive viewer")
     s.add_argument("scene", nargs="?", default=None, help="built-in name or file (default arcade)")
     s.add_argument("--pass", dest="pass_name", default="forward", metavar="NAME")
     s.add_argument("--set", action="append", metavar="KEY=VALUE")
     s.add_argument("--size", default="1280x720")
+    s.add_argument("--compare", metavar="PASS|diff", help="split view: this pass right of the divider, or diff: "
+                   "FLIP of --pass against the reference")
+    s.add_argument("--split", type=float, default=0.5, metavar="F", help="the divider at this fraction of the width")
+    s.add_argument("--bookmarks", metavar="FILE.json", help="camera bookmarks to load at start (the panel's format)")
     s.add_argument("--exit-after", type=int, default=0, metavar="N", help="render N frames, then exit")
     s.add_argument("--screenshot", metavar="FILE.png", help="save the window (with the UI) before exiting")
 

@@ -5,7 +5,10 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from app.camera import Camera, parse_camera
+from app.compare import DIFF, REFERENCE_FRAMES, check_compare, compose, flip_map
 from app.gl_context import check_frame_size, create_headless_context
 from app.image_io import check_output, write_npy, write_png
 from app.options import Options
@@ -37,7 +40,10 @@ def run_shot(args) -> int:
     width, height = parse_size(args.size)
     if not 1 <= args.frames <= MAX_FRAMES:
         raise UserError(f"--frames must be within 1..{MAX_FRAMES:,}, got {args.frames}")
-    out = args.out or f"{Path(args.scene).stem.replace(':', '_')}_{args.pass_name}.png"
+    compare = getattr(args, "compare", None)
+    check_compare(args.pass_name, compare, getattr(args, "split", 0.5))
+    suffix = f"_vs_{compare}" if compare else ""
+    out = args.out or f"{Path(args.scene).stem.replace(':', '_')}_{args.pass_name}{suffix}.png"
     check_output(out, ".png", "screenshots")  # every output is checked before any work
     if args.raw:
         check_output(args.raw, ".npy", "raw images")
@@ -51,13 +57,35 @@ def run_shot(args) -> int:
     _render_frames(renderer, camera, width, height, args.pass_name, args.frames)
     elapsed = time.perf_counter() - t0
     display, linear = renderer.read_display(), (renderer.read_linear() if args.raw else None)
+    note = ""
+    if compare:
+        display, note = _compared(renderer, camera, width, height, args, display, elapsed)
     write_png(out, display)
     if args.raw:
         write_npy(args.raw, linear)
-    print(f"{scene.name}: {args.pass_name} {width}x{height}, {args.frames} frame(s) in {elapsed:.2f} s -> {out}"
+    print(f"{scene.name}: {args.pass_name} {width}x{height}, {args.frames} frame(s) in {elapsed:.2f} s{note} -> {out}"
           + (f", {args.raw}" if args.raw else ""))
     renderer.release()
     return 0
+
+
+def _compared(renderer, camera, width: int, height: int, args, left: np.ndarray, left_s: float):
+    """The split image of `--compare`, and what the summary line adds."""
+    right_name = args.compare
+    t0 = time.perf_counter()
+    if right_name == DIFF:
+        frames = max(REFERENCE_FRAMES, args.frames)
+        _render_frames(renderer, camera, width, height, "reference", frames)
+        right, mean = flip_map(renderer.read_display(), left)
+        label, note = f"FLIP vs reference ({frames} frames): {mean:.3f}", f", mean FLIP {mean:.4f} vs the reference"
+    else:
+        _render_frames(renderer, camera, width, height, right_name, args.frames)
+        right = renderer.read_display()
+        right_s = time.perf_counter() - t0
+        label = f"{right_name}: {right_s / args.frames * 1e3:.1f} ms/frame"
+        note = f"; {right_name} {right_s:.2f} s"
+    image = compose(left, right, args.split, (f"{args.pass_name}: {left_s / args.frames * 1e3:.1f} ms/frame", label))
+    return image, note
 
 
 def _render_frames(renderer, camera, width: int, height: int, pass_name: str, frames: int) -> None:

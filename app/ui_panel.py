@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.compare import DIFF
 from app.graph import option_groups
 from app.passes import ALL
 from core.errors import UserError
@@ -98,6 +99,7 @@ class Panel:
             changed, idx = imgui.combo("pass", idx, list(ALL))
             if changed:
                 v.pass_name = ALL[idx]
+            self._compare(imgui)
             for key in ("exposure", "env", "accumulate", "max_frames", "gbuffer", "tracer"):
                 self._option(imgui, key)
             _, v.resolution_scale = imgui.slider_float("resolution scale", v.resolution_scale, 0.25, 1.0, "%.2f")
@@ -133,6 +135,20 @@ class Panel:
         imgui.end()
         if v.show_profiler:
             self.draw_profiler(imgui)
+
+    def _compare(self, imgui) -> None:
+        """The split view: a second pass (or diff: FLIP against the reference) right of the divider."""
+        v = self.v
+        choices = ["(none)"] + list(ALL) + [DIFF]
+        current = v.comparison.mode if v.comparison is not None else "(none)"
+        changed, idx = imgui.combo("compare with", choices.index(current), choices)
+        if changed:
+            self._guard(lambda: v.set_compare(None if idx == 0 else choices[idx]))
+        if v.comparison is not None:
+            _, v.split = imgui.slider_float("divider", v.split, 0.0, 1.0, "%.2f")
+            imgui.same_line()
+            if imgui.small_button("swap"):
+                self._guard(v.swap_sides)
 
     def _guard(self, fn) -> None:
         try:

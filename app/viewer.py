@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from app.camera import Camera
+from app.compare import DIFF, check_compare
 from app.fly_camera import FlyCamera, FlyInput
 from app.gl_context import fullscreen, set_uniform, wrap_current_context
 from app.headless import parse_size
@@ -25,6 +26,7 @@ from app.image_io import write_npy, write_png
 from app.options import Options
 from app.passes import check_pass
 from app.renderer import Renderer
+from app.split_view import Comparison, Track
 from app.ui_panel import Panel
 from core.errors import UserError
 from scenes.builtin import DEFAULT_SCENE
@@ -72,8 +74,10 @@ class Viewer:
         self.moving = False
         # ray-traced frames compute on a worker thread; the window keeps drawing the last image
         self.pool = ThreadPoolExecutor(1, thread_name_prefix="rtlab-trace")
-        self.job = None
-        self.future = None
+        self.main = Track(self.renderer, self.pool)
+        self.comparison: Comparison | None = None  # the split view's right side
+        self.split = float(getattr(args, "split", 0.5))  # the divider, a fraction of the width
+        self.dragging_split = False
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
         self.show_ui = True
         self.show_profiler = True
@@ -83,6 +87,19 @@ class Viewer:
         self.bookmarks: dict[str, View] = dict(scene.views)
         self.fb_size = glfw.get_framebuffer_size(self.window)
         self._init_imgui()
+        if getattr(args, "compare", None):
+            self.set_compare(args.compare)
+        if getattr(args, "bookmarks", None):  # keys 1-9 and the panel's buttons follow the file
+            self.load_bookmarks(args.bookmarks)
+            self.panel.message = f"loaded {len(self.bookmarks)} bookmarks from {args.bookmarks}"
+
+    @property
+    def job(self):
+        return self.main.job
+
+    @property
+    def future(self):
+        return self.main.future
 
     def _init_imgui(self) -> None:
         from imgui_bundle import imgui
@@ -103,14 +120,25 @@ class Viewer:
     def request_scene(self, spec: str) -> None:
         self.pending_scene = spec
 
+    def set_compare(self, mode: str | None) -> None:
+        """Split the view: `mode` (a pass, or diff) right of the divider; None: one pass."""
+        check_compare(self.pass_name, mode, self.split)
+        if self.comparison is not None:
+            self.comparison.release()
+            self.comparison = None
+        if mode:
+            self.comparison = Comparison(self.ctx, self.scene, self.options, mode, self.pool)
+
+    def swap_sides(self) -> None:
+        if self.comparison is not None and self.comparison.mode != DIFF:
+            self.pass_name, mode = self.comparison.mode, self.pass_name
+            self.set_compare(mode)
+
     def _drop_job(self) -> None:
-        """Wait for the frame being traced and discard it (its scene or state is going away)."""
-        if self.future is not None:
-            try:
-                self.future.result()
-            except Exception:  # noqa: BLE001 - its error no longer matters
-                pass
-        self.job = self.future = None
+        """Wait for the frames being traced and discard them (their scene or state is going away)."""
+        self.main.drop()
+        if self.comparison is not None:
+            self.comparison.track.drop()
 
     def _load_pending_scene(self) -> None:
         spec, self.pending_scene = self.pending_scene, None
@@ -122,6 +150,8 @@ class Viewer:
             return
         self.scene, self.scene_spec = scene, spec
         self.renderer.set_scene(scene)
+        if self.comparison is not None:
+            self.comparison.set_scene(scene)
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
         self.bookmarks = dict(scene.views)
         self.glfw.set_window_title(self.window, f"rtlab - {scene.name}")
@@ -142,16 +172,8 @@ class Viewer:
         self.panel.message = f"saved {len(data)} bookmarks to {path}"
 
     def load_bookmarks(self, path: str) -> None:
-        """A file saved by save_bookmarks: {name: {eye, target, up, fov}}. Anything else (a list,
-        a vector of two numbers, a camera looking at its own eye) is refused with one line, and
-        the bookmarks in use stay."""
-        try:
-            data = json.loads(Path(path).read_text())
-            if not isinstance(data, dict) or not data:
-                raise ValueError("expected an object of named views, as 'save bookmarks' writes")
-            views = {str(name): _bookmark(str(name), d) for name, d in data.items()}
-        except (OSError, ValueError, KeyError, TypeError, RecursionError) as e:
-            raise UserError(f"cannot load bookmarks from {path}: {e}") from None
+        """A file saved by save_bookmarks (read_bookmarks); a bad one leaves those in use."""
+        views = read_bookmarks(path)
         self.bookmarks = views
         self.panel.message = f"loaded {len(views)} bookmarks"
 
@@ -219,6 +241,8 @@ class Viewer:
             self.panel.draw(imgui)
         elif self.show_profiler:
             self.panel.draw_profiler(imgui)
+        if self.comparison is not None:
+            self._split_overlay(imgui)
         imgui.render()
         if self.pending_scene:
             self._load_pending_scene()
@@ -230,46 +254,66 @@ class Viewer:
             scale = self.resolution_scale * (self.motion_scale if self.moving else 1.0)
             rw, rh = max(1, int(w * scale)), max(1, int(h * scale))
             try:
-                self._render(rw, rh, start_new)
+                self.main.advance(self.fly.camera, rw, rh, self.pass_name, start_new)
+                if self.comparison is not None:
+                    c = self.comparison
+                    c.track.advance(self.fly.camera, rw, rh, c.pass_name, start_new)
             except UserError as e:
                 self.panel.error = str(e)
-            if self.renderer.frame is not None:
-                self.ctx.screen.use()
-                self.ctx.screen.viewport = (0, 0, w, h)
-                prog, vao = fullscreen(self.ctx, "blit.frag")
-                display = self.renderer.frame.channels["display"]
-                display.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
-                display.use(0)
-                set_uniform(prog, "image", 0)
-                vao.render(vertices=3)
+            self._show(w, h)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 
-    def _render(self, width: int, height: int, start_new: bool = True) -> None:
-        """Start, collect or skip a frame without ever blocking on ray tracing."""
-        r = self.renderer
-        if self.future is not None:
-            if not self.future.done():
-                return
-            job, future = self.job, self.future
-            self.job = self.future = None
-            future.result()  # re-raise a tracing error here
-            if job.state == r.state_of(self.fly.camera, width, height, self.pass_name) and job.state == r._state:
-                r.finish(job)
-            # else the camera, size or an option changed while tracing: the frame is stale
-        if not start_new:
-            return
-        job = r.prepare(self.fly.camera, width, height, self.pass_name)
-        if job is None:
-            return
-        if job.cpu:
-            self.job, self.future = job, self.pool.submit(r.compute, job)
-        else:
-            r.finish(job)
+    def _split_overlay(self, imgui) -> None:
+        """The divider (drag it with the left mouse button) and each side's label."""
+        io = imgui.get_io()
+        scale = io.display_framebuffer_scale.x or 1.0
+        width = io.display_size.x
+        x = self.split * width
+        mouse = io.mouse_pos
+        near = abs(mouse.x - x) < 6 and 0 <= mouse.y < io.display_size.y
+        if imgui.is_mouse_clicked(0) and near and not io.want_capture_mouse:
+            self.dragging_split = True
+        if not imgui.is_mouse_down(0):
+            self.dragging_split = False
+        if self.dragging_split and width > 0:
+            self.split = float(min(max(mouse.x / width, 0.0), 1.0))
+        draw = imgui.get_foreground_draw_list()
+        colour = imgui.get_color_u32((1.0, 1.0, 1.0, 1.0 if (near or self.dragging_split) else 0.8))
+        draw.add_line((x, 0), (x, io.display_size.y), colour, 2.0 * scale)
+        left = f"{self.pass_name}: {self.renderer.frame_count} frames"
+        y = io.display_size.y - 24
+        dark = imgui.get_color_u32((0.0, 0.0, 0.0, 0.7))
+        for text, at_x in ((left, 8), (self.comparison.label, None)):
+            size = imgui.calc_text_size(text)
+            tx = at_x if at_x is not None else width - size.x - 8
+            draw.add_rect_filled((tx - 4, y - 2), (tx + size.x + 4, y + size.y + 2), dark)
+            draw.add_text((tx, y), imgui.get_color_u32((1.0, 1.0, 1.0, 1.0)), text)
+
+    def _show(self, w: int, h: int) -> None:
+        """The main image, and in a split view the comparison right of the divider, labelled."""
+        self.ctx.screen.use()
+        self.ctx.screen.viewport = (0, 0, w, h)
+        prog, vao = fullscreen(self.ctx, "blit.frag")
+        sides = [(self.renderer.frame.channels["display"] if self.renderer.frame is not None else None, None)]
+        if self.comparison is not None:
+            x = int(round(self.split * w))
+            sides.append((self.comparison.texture(self.renderer), (x, 0, max(w - x, 0), h)))
+        for texture, scissor in sides:
+            if texture is None:
+                continue
+            self.ctx.scissor = scissor
+            texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            texture.use(0)
+            set_uniform(prog, "image", 0)
+            vao.render(vertices=3)
+        self.ctx.scissor = None
 
     def wait_for_frame(self) -> None:
-        """Block until the frame being traced is shown (tests, --exit-after)."""
-        if self.future is not None:
-            self.future.result()
+        """Block until the frames being traced are shown (tests, --exit-after)."""
+        if self.main.busy or (self.comparison is not None and self.comparison.track.busy):
+            self.main.wait()
+            if self.comparison is not None:
+                self.comparison.track.wait()
             self.frame(0.0, start_new=False)
 
     def run(self, exit_after: int = 0, screenshot: str | None = None) -> int:
@@ -298,9 +342,23 @@ class Viewer:
         imgui.backends.opengl3_shutdown()
         imgui.backends.glfw_shutdown()
         imgui.destroy_context()
+        if self.comparison is not None:
+            self.comparison.release()
         self.renderer.release()
         self.glfw.destroy_window(self.window)
         self.glfw.terminate()
+
+
+def read_bookmarks(path: str) -> dict[str, View]:
+    """A file saved by save_bookmarks: {name: {eye, target, up, fov}}. Anything else (a list,
+    a vector of two numbers, a camera looking at its own eye) is refused with one line."""
+    try:
+        data = json.loads(Path(path).read_text())
+        if not isinstance(data, dict) or not data:
+            raise ValueError("expected an object of named views, as 'save bookmarks' writes")
+        return {str(name): _bookmark(str(name), d) for name, d in data.items()}
+    except (OSError, ValueError, KeyError, TypeError, RecursionError) as e:
+        raise UserError(f"cannot load bookmarks from {path}: {e}") from None
 
 
 def _bookmark(name: str, d) -> View:
@@ -330,6 +388,10 @@ def run_viewer(args) -> int:
         raise UserError(NO_DISPLAY.format(scene=scene))
     if args.screenshot and not args.exit_after:
         args.exit_after = 1
+    check_pass(args.pass_name)
+    check_compare(args.pass_name, getattr(args, "compare", None), getattr(args, "split", 0.5))
+    if getattr(args, "bookmarks", None):
+        read_bookmarks(args.bookmarks)  # a bad file: one line before any window opens
     from rt.backends import resolve
 
     gpu = resolve("auto")

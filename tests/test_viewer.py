@@ -39,7 +39,8 @@ def run_check(name: str, timeout: int = 600):
 @pytest.mark.parametrize("name", ["every_mode_renders_in_a_window", "failed_scene_load_keeps_the_old_scene",
                                   "minimise_to_zero_size_does_not_crash",
                                   "keys_move_the_camera_and_reset_accumulation",
-                                  "ray_tracing_does_not_block_the_window"])
+                                  "ray_tracing_does_not_block_the_window", "split_view_shows_each_pass_on_its_side",
+                                  "bookmarks_file_drives_keys_and_buttons"])
 def test_window_behaviour(display, name):
     if name.startswith("keys") and shutil.which("xdotool") is None:
         pytest.skip("xdotool not installed")
@@ -99,3 +100,22 @@ def test_bad_bookmark_files_are_one_user_error_and_keep_the_old_ones(tmp_path, t
     path.write_text('{"front": {"eye": [0, 1, 5], "target": [0, 1, 0], "fov": 50}}')
     Viewer.load_bookmarks(viewer, str(path))
     assert list(viewer.bookmarks) == ["front"] and viewer.bookmarks["front"].fov == 50.0
+
+
+@pytest.mark.parametrize("content,needle", [("[1, 2]", "expected an object of named views"),
+                                            ('{"a": {"eye": [0, 1], "target": [0, 0, 0]}}', "three finite numbers"),
+                                            ("{not json", "cannot load bookmarks"), (None, "No such file")])
+def test_view_bookmarks_file_is_checked_before_the_window_opens(display, tmp_path, content, needle):
+    path = tmp_path / "b.json"
+    if content is not None:
+        path.write_text(content)
+    r = subprocess.run([sys.executable, "-m", "app.cli", "view", "arcade", "--bookmarks", str(path), "--exit-after",
+                        "1"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
+
+
+def test_view_compare_option_is_checked(display):
+    for args, needle in ((["--compare", "nope"], "unknown pass"), (["--compare", "ao", "--split", "-1"], "--split")):
+        r = subprocess.run([sys.executable, "-m", "app.cli", "view", "arcade", *args, "--exit-after", "1"],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr

@@ -13,7 +13,63 @@ import numpy as np
 
 def view_args(scene="arcade", pass_name="forward", size="320x200", **kw):
     return SimpleNamespace(scene=scene, pass_name=pass_name, set=kw.pop("set", None), size=size,
-                           exit_after=kw.pop("exit_after", 0), screenshot=kw.pop("screenshot", None))
+                           exit_after=kw.pop("exit_after", 0), screenshot=kw.pop("screenshot", None),
+                           compare=kw.pop("compare", None), split=kw.pop("split", 0.5),
+                           bookmarks=kw.pop("bookmarks", None))
+
+
+def _screen(v) -> np.ndarray:
+    w, h = v.fb_size
+    data = np.frombuffer(v.ctx.screen.read(viewport=(0, 0, w, h), components=3), np.uint8)
+    return data.reshape(h, w, 3)[::-1].astype(int)
+
+
+def test_bookmarks_file_drives_keys_and_buttons():
+    import json
+
+    from app.viewer import Viewer
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "b.json"
+        path.write_text(json.dumps({"high": {"eye": [0, 9, 0.1], "target": [0, 0, 0], "fov": 50},
+                                    "low": {"eye": [3, 1, 3], "target": [0, 1, 0]}}))
+        v = Viewer(view_args(bookmarks=str(path)))
+        try:
+            assert list(v.bookmarks) == ["high", "low"] and "loaded 2 bookmarks" in v.panel.message
+            v.go_to_view("high")
+            assert np.allclose(v.fly.camera.eye, [0, 9, 0.1]) and v.fly.camera.fov == 50
+        finally:
+            v.close()
+
+
+def test_split_view_shows_each_pass_on_its_side():
+    """--compare: left of the divider the main pass, right of it the compared one, each the image
+    its own renderer made; dragging the divider moves it; swap exchanges the sides."""
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(size="200x120", compare="albedo", split=0.25))
+    v.show_ui = v.show_profiler = False
+    try:
+        for _ in range(3):
+            v.frame(0.016)
+        v.wait_for_frame()
+        v.frame(0.016, start_new=False)
+        screen = _screen(v)
+        x = int(round(0.25 * screen.shape[1]))
+        rows = slice(10, screen.shape[0] - 30)  # clear of the labels at the bottom
+        left = np.asarray(v.renderer.read_display()).astype(int)
+        right = np.asarray(v.comparison.track.renderer.read_display()).astype(int)
+        assert left.shape == screen.shape and right.shape == screen.shape
+        assert np.abs(screen[rows, : x - 3] - left[rows, : x - 3]).mean() < 2.0
+        assert np.abs(screen[rows, x + 3:] - right[rows, x + 3:]).mean() < 2.0
+        assert np.abs(left[rows, x + 3:] - right[rows, x + 3:]).mean() > 10.0  # two different images
+        v.swap_sides()
+        assert v.pass_name == "albedo" and v.comparison.mode == "forward"
+        v.set_compare(None)
+        assert v.comparison is None
+    finally:
+        v.close()
+
 
 
 def test_every_mode_renders_in_a_window():
