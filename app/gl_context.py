@@ -67,14 +67,23 @@ def shader_source(name: str) -> str:
     return INCLUDE.sub(lambda m: shader_source(m.group(1)), text)
 
 
-def program(ctx, vertex: str, fragment: str | None = None):
-    """Compile a program from files in shaders/ (with #include), cached per context."""
+def with_defines(source: str, defines: tuple[str, ...]) -> str:
+    """The source with `#define NAME` lines after its #version line."""
+    if not defines:
+        return source
+    head, newline, rest = source.partition("\n")
+    return head + newline + "".join(f"#define {d}\n" for d in defines) + rest
+
+
+def program(ctx, vertex: str, fragment: str | None = None, defines: tuple[str, ...] = ()):
+    """Compile a program from files in shaders/ (with #include and the given #defines), cached
+    per context."""
     cache = ctx.extra if isinstance(ctx.extra, dict) else {}
     ctx.extra = cache
-    key = ("program", vertex, fragment)
+    key = ("program", vertex, fragment, defines)
     if key not in cache:
-        cache[key] = ctx.program(vertex_shader=shader_source(vertex),
-                                 fragment_shader=shader_source(fragment) if fragment else None)
+        cache[key] = ctx.program(vertex_shader=with_defines(shader_source(vertex), defines),
+                                 fragment_shader=with_defines(shader_source(fragment), defines) if fragment else None)
     return cache[key]
 
 

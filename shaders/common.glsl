@@ -19,7 +19,8 @@ struct MaterialSample {
 };
 
 // glTF's wrap modes (scenes.model.WRAP_*: 0 repeat, 1 clamp, 2 mirror) applied to uvs; the
-// array's sampler repeats. Sampled with the gradients of the unwrapped uvs (no seams in mips).
+// array's sampler repeats. (Plain texture(), not textureGrad: llvmpipe's code for explicit
+// gradients costs memory per shader variant; a mirrored seam may pick a coarser mip.)
 vec2 wrap_uv(vec2 uv, int wrap) {
     ivec2 mode = ivec2(wrap % 3, wrap / 3);
     vec2 size = vec2(textureSize(base_textures, 0).xy);
@@ -32,9 +33,12 @@ vec2 wrap_uv(vec2 uv, int wrap) {
 }
 
 vec4 layer_sample(float layer, vec2 uv, int wrap) {
-    return textureGrad(base_textures, vec3(wrap_uv(uv, wrap), layer), dFdx(uv), dFdy(uv));
+    return texture(base_textures, vec3(wrap == 0 ? uv : wrap_uv(uv, wrap), layer));
 }
 
+// The scene's material features are #defined by app/raster/gpu_scene.py (HAS_BASE_TEXTURES,
+// HAS_ORM_TEXTURES, HAS_NORMAL_MAPS, HAS_EMISSION_TEXTURES, HAS_ALPHA_MASKS): code for the others
+// is left out.
 MaterialSample fetch_material(int id, vec2 uv) {
     vec4 t0 = texelFetch(material_table, ivec2(id * MAT_TEXELS + 0, 0), 0);
     vec4 t1 = texelFetch(material_table, ivec2(id * MAT_TEXELS + 1, 0), 0);
@@ -45,23 +49,33 @@ MaterialSample fetch_material(int id, vec2 uv) {
     m.uv = uv;
     m.albedo = t0.rgb;
     m.alpha = t0.a;
+#ifdef HAS_BASE_TEXTURES
     if (t1.w >= 0.0) {
         vec4 base = layer_sample(t1.w, uv, m.wrap);
         m.albedo *= base.rgb;
         m.alpha *= base.a;
     }
-    m.emissive = t3.z >= 0.0 ? layer_sample(t3.z, uv, m.wrap).rgb : t1.rgb;
+#endif
+    m.emissive = t1.rgb;
+#ifdef HAS_EMISSION_TEXTURES
+    if (t3.z >= 0.0) m.emissive = layer_sample(t3.z, uv, m.wrap).rgb;
+#endif
     m.roughness = t2.x;
     m.metallic = t2.y;
     m.occlusion = 1.0;
+#ifdef HAS_ORM_TEXTURES
     if (t3.x >= 0.0) {
         vec3 orm = layer_sample(t3.x, uv, m.wrap).rgb;
         m.occlusion = orm.r;
         m.roughness = orm.g;
         m.metallic = orm.b;
     }
+#endif
     m.normal_layer = t3.y;
+    m.cutoff = -1.0;
+#ifdef HAS_ALPHA_MASKS
     m.cutoff = t3.w;
+#endif
     m.id = id;
     return m;
 }
@@ -69,6 +83,7 @@ MaterialSample fetch_material(int id, vec2 uv) {
 // The shading normal: the interpolated vertex normal n bent by the material's normal map in
 // the frame of the vertex tangent (xyz, w: handedness), as glTF defines it.
 vec3 mapped_normal(MaterialSample m, vec3 n, vec4 tangent) {
+#ifdef HAS_NORMAL_MAPS
     if (m.normal_layer < 0.0 || dot(tangent.xyz, tangent.xyz) < 1e-12) return n;
     vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
     if (dot(t, t) < 1e-12) return n;
@@ -77,6 +92,9 @@ vec3 mapped_normal(MaterialSample m, vec3 n, vec4 tangent) {
     vec3 mapped = layer_sample(m.normal_layer, m.uv, m.wrap).xyz;
     vec3 out_n = t * mapped.x + b * mapped.y + n * mapped.z;
     return dot(out_n, out_n) > 1e-12 ? normalize(out_n) : n;
+#else
+    return n;
+#endif
 }
 
 const vec3 SKY_HORIZON = vec3(0.9, 0.95, 1.0);

@@ -118,6 +118,12 @@ class GpuScene:
             table[k * MAT_TEXELS + 2] = (m.roughness, m.metallic, float(m.double_sided), m.wrap[0] + 3 * m.wrap[1])
             table[k * MAT_TEXELS + 3] = (index[1], index[2], index[3], m.alpha_cutoff if m.alpha_tested else -1.0)
         self.alpha_tested = any(m.alpha_tested for m in mats)
+        # the material features this scene uses: shaders compile only those (common.glsl); a
+        # scene without them gets the small shaders (llvmpipe's memory grows with shader size)
+        used = [any(m.layers()[k] is not None for m in mats) for k in range(4)]
+        names = ("HAS_BASE_TEXTURES", "HAS_ORM_TEXTURES", "HAS_NORMAL_MAPS", "HAS_EMISSION_TEXTURES")
+        self.defines = tuple(name for name, k in zip(names, used, strict=True) if k)
+        self.defines += ("HAS_ALPHA_MASKS",) if self.alpha_tested else ()
         self.material_table = ctx.texture((table.shape[0], 1), 4, table.tobytes(), dtype="f4")
         self.material_table.filter = (ctx.NEAREST, ctx.NEAREST)
         self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers.tobytes(), dtype="f2")
@@ -140,7 +146,7 @@ class GpuScene:
     def vao(self, vertex: str, fragment: str | None, with_attributes: bool = True):
         key = (vertex, fragment)
         if key not in self._vaos:
-            prog = program(self.ctx, vertex, fragment)
+            prog = program(self.ctx, vertex, fragment, self.defines)
             content = [(self.vbo_pos, "3f", "in_position")]
             if with_attributes:
                 if "in_normal" in prog:
