@@ -6,6 +6,7 @@ reference path tracer (app/compare.py), recomputed as either side's frames accum
 from __future__ import annotations
 
 import time
+from collections import deque
 
 import numpy as np
 
@@ -23,6 +24,20 @@ class Track:
         self.renderer, self.pool = renderer, pool
         self.job = self.future = None
         self.shown = False  # a frame of the current state was finished: the display image is real
+        self.shown_label = ""  # "scene: pass" of the image on screen
+        self.shown_times: deque = deque(maxlen=60)  # when each image on screen was finished
+
+    def _finished(self, pass_name: str) -> None:
+        self.shown = True
+        self.shown_label = f"{self.renderer.scene.name}: {pass_name}"
+        self.shown_times.append(time.perf_counter())
+
+    def shown_fps(self) -> float:
+        """Images finished per second over the last few (the frame rate a user sees)."""
+        t = self.shown_times
+        if len(t) < 2 or time.perf_counter() - t[-1] > 5.0:
+            return 0.0
+        return (len(t) - 1) / max(t[-1] - t[0], 1e-6)
 
     @property
     def busy(self) -> bool:
@@ -38,7 +53,7 @@ class Track:
             future.result()  # re-raise a tracing error here
             if job.state == r.state_of(camera, width, height, pass_name) and job.state == r._state:
                 r.finish(job)
-                self.shown = True
+                self._finished(pass_name)
             # else the camera, size or an option changed while tracing: the frame is stale
         if not start_new:
             return
@@ -49,7 +64,7 @@ class Track:
             self.job, self.future = job, self.pool.submit(r.compute, job)
         else:
             r.finish(job)
-            self.shown = True
+            self._finished(pass_name)
 
     def drop(self) -> None:
         """Wait for the frame being traced and discard it (its scene or state is going away)."""

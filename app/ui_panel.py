@@ -14,8 +14,11 @@ from core.errors import UserError
 KEYS_HELP = [
     ("W A S D", "move"), ("Q / E", "down / up"), ("right mouse drag", "look"), ("Shift / Ctrl", "faster / slower"),
     ("scroll wheel", "change speed"), ("1 - 9", "camera bookmarks"), ("F12", "screenshot (PNG + .npy)"),
-    ("G or F2", "hide / show UI"), ("P", "profiler"), ("R", "reset accumulation"), ("Esc", "quit"),
+    ("G or F2", "hide / show UI"), ("P", "profiler"), ("R", "reset accumulation"), ("F1 or H", "this help"),
+    ("left mouse drag", "the split view's divider"), ("drop a file", "open a .gltf/.glb/.obj/.ply scene"),
+    ("Esc", "quit"),
 ]
+PANEL_WIDTH = 460
 
 
 def draw_option(imgui, options, key: str) -> bool:
@@ -59,6 +62,17 @@ def option_keys_for(options, pass_name: str) -> list[str]:
     return [k for g in option_groups(pass_name) for k in options.keys() if k.startswith(g + ".")]
 
 
+def keep_on_screen(imgui) -> None:
+    """Move the current window back into the display when a resize left it outside."""
+    io = imgui.get_io()
+    pos, size = imgui.get_window_pos(), imgui.get_window_size()
+    w, h = io.display_size.x, io.display_size.y
+    x = min(max(pos.x, 0.0), max(w - min(size.x, w), 0.0))
+    y = min(max(pos.y, 0.0), max(h - 40.0, 0.0))
+    if (x, y) != (pos.x, pos.y):
+        imgui.set_window_pos((x, y))
+
+
 class Panel:
     def __init__(self, viewer):
         self.v = viewer
@@ -70,10 +84,14 @@ class Panel:
     def draw(self, imgui) -> None:
         v = self.v
         imgui.set_next_window_pos((10, 10), imgui.Cond_.first_use_ever.value)
-        imgui.set_next_window_size((380, 620), imgui.Cond_.first_use_ever.value)
+        imgui.set_next_window_size((PANEL_WIDTH, 640), imgui.Cond_.first_use_ever.value)
         imgui.begin("rtlab")
+        keep_on_screen(imgui)
+        imgui.push_item_width(imgui.get_window_width() * 0.5)  # room for the labels right of the fields
         if self.error:
+            imgui.push_text_wrap_pos(0.0)  # the whole message, wrapped at the panel's edge
             imgui.text_colored((1.0, 0.35, 0.3, 1.0), self.error)
+            imgui.pop_text_wrap_pos()
             if imgui.small_button("dismiss"):
                 self.error = ""
         elif self.message:
@@ -88,9 +106,13 @@ class Panel:
             if changed and idx >= 0:
                 v.request_scene(names[idx])
             _, self.scene_path = imgui.input_text("file", self.scene_path)
-            imgui.same_line()
             if imgui.button("open"):
                 v.request_scene(self.scene_path.strip())
+            imgui.same_line()
+            if imgui.button("browse..."):
+                self._browse()
+            imgui.same_line()
+            imgui.text_disabled("(or drop a file on the window)")
             st = v.scene.stats()
             imgui.text(f"{st['triangles']:,} triangles, {st['lights']} lights, "
                        f"{st['emissive_triangles']:,} emissive")
@@ -117,8 +139,9 @@ class Panel:
                     v.go_to_view(name)
                 if k % 3 != 2 and k != len(cams[:9]) - 1:
                     imgui.same_line()
+            self._camera_fields(imgui)
             _, v.fly.speed = imgui.drag_float("speed m/s", v.fly.speed, 0.05, 0.001, 10000.0)
-            if imgui.button("print --camera"):
+            if imgui.button("copy camera string"):
                 text = v.fly.camera.to_string()
                 print(f'--camera "{text}"', flush=True)
                 imgui.set_clipboard_text(text)
@@ -129,9 +152,10 @@ class Panel:
             imgui.same_line()
             if imgui.button("load bookmarks"):
                 self._guard(lambda: v.load_bookmarks(self.camera_json))
-        if imgui.collapsing_header("Help"):
-            for keys, what in KEYS_HELP:
-                imgui.text(f"{keys:<18} {what}")
+        if imgui.collapsing_header("Screenshots"):
+            _, v.screenshot_dir = imgui.input_text("F12 folder", v.screenshot_dir)
+        imgui.text_disabled("F1: keys and mouse")
+        imgui.pop_item_width()
         imgui.end()
         if v.show_profiler:
             self.draw_profiler(imgui)
@@ -150,6 +174,45 @@ class Panel:
             if imgui.small_button("swap"):
                 self._guard(v.swap_sides)
 
+    def draw_help(self, imgui) -> None:
+        v = self.v
+        imgui.set_next_window_pos((v.fb_size[0] / 2 - 220, 60), imgui.Cond_.appearing.value)
+        opened, v.show_help = imgui.begin("Keys and mouse (F1)", True)
+        if opened:
+            for keys, what in KEYS_HELP:
+                imgui.text(f"{keys:<18} {what}")
+        imgui.end()
+
+    def _camera_fields(self, imgui) -> None:
+        """The camera's position, target and field of view, editable."""
+        from app.camera import Camera
+
+        v = self.v
+        cam = v.fly.camera
+        eye_changed, eye = imgui.input_float3("position", [float(x) for x in cam.eye], "%.3f")
+        target_changed, target = imgui.input_float3("target", [float(x) for x in cam.target], "%.3f")
+        fov_changed, fov = imgui.slider_float("fov (deg)", float(cam.fov), 10.0, 120.0, "%.1f")
+        if eye_changed or target_changed or fov_changed:
+            eye, target = np.asarray(eye, np.float64), np.asarray(target, np.float64)
+            if np.isfinite(eye).all() and np.isfinite(target).all() and np.linalg.norm(target - eye) > 1e-9:
+                new = Camera(eye, target, cam.up.copy(), float(fov), cam.near, cam.far)
+                v.fly.set_camera(new)
+
+    def _browse(self) -> None:
+        """A native file dialog (imgui-bundle's portable-file-dialogs: zenity or kdialog on Linux)."""
+        try:
+            from imgui_bundle import portable_file_dialogs as pfd
+
+            if not pfd.settings.available():
+                raise RuntimeError
+            picked = pfd.open_file("Open a scene", "", ["Scenes", "*.gltf *.glb *.obj *.ply"]).result()
+        except Exception:  # noqa: BLE001 - no dialog program on this system
+            self.error = "no file dialog here (install zenity or kdialog): type a path or drop a file on the window"
+            return
+        if picked:
+            self.scene_path = picked[0]
+            self.v.request_scene(picked[0])
+
     def _guard(self, fn) -> None:
         try:
             fn()
@@ -166,18 +229,26 @@ class Panel:
     def draw_profiler(self, imgui) -> None:
         v = self.v
         prof = v.renderer.profiler
-        imgui.set_next_window_pos((v.fb_size[0] - 330, 10), imgui.Cond_.first_use_ever.value)
-        imgui.set_next_window_size((320, 300), imgui.Cond_.first_use_ever.value)
+        imgui.set_next_window_pos((v.fb_size[0] - 370, 10), imgui.Cond_.first_use_ever.value)
+        imgui.set_next_window_size((360, 300), imgui.Cond_.first_use_ever.value)
         imgui.begin("Profiler (P)")
-        fps = 1000.0 / max(np.mean(v.frame_times) if v.frame_times else 1.0, 1e-6)
-        imgui.text(f"frame {v.frame_times[-1] if v.frame_times else 0:.2f} ms   {fps:.1f} fps")
+        keep_on_screen(imgui)
+        shown = v.main.shown_fps()
+        ui = 1000.0 / max(np.mean(v.frame_times) if v.frame_times else 1.0, 1e-6)
+        if shown > 0:
+            imgui.text(f"images shown: {shown:.1f} fps ({1000.0 / shown:.1f} ms)")
+        else:
+            imgui.text("images shown: none new (the image on screen is up to date)" if v.main.shown else
+                       "images shown: none yet")
+        imgui.text_disabled(f"UI loop: {ui:.0f} fps")
         if v.frame_times:
             imgui.plot_lines("##frametime", np.asarray(v.frame_times, np.float32), graph_size=(300, 50))
         if imgui.begin_table("passes", 4):
-            for h in ("pass", "kind", "last ms", "avg ms"):
-                imgui.table_setup_column(h)
+            for k, h in enumerate(("pass", "kind", "last ms", "avg ms")):
+                imgui.table_setup_column(h, imgui.TableColumnFlags_.width_stretch.value, 2.2 if k == 0 else 1.0)
             imgui.table_headers_row()
-            for name, ms in prof.finished.items():  # the passes of the last finished frame only
+            rows = sorted(prof.finished.items(), key=lambda item: not item[0].startswith(v.pass_name))
+            for name, ms in rows:  # the passes of the last finished frame only, the selected pass first
                 imgui.table_next_row()
                 for col, text in enumerate((name, prof.kind.get(name, ""), f"{ms:.2f}",
                                             f"{prof.average(name):.2f}")):

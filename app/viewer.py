@@ -81,12 +81,15 @@ class Viewer:
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
         self.show_ui = True
         self.show_profiler = True
+        self.show_help = False  # F1
+        self.screenshot_dir = "rtlab-screenshots"  # F12 writes here (the panel names it)
         self.frame_times: deque = deque(maxlen=240)
         self.panel = Panel(self)
         self.pending_scene: str | None = None
         self.bookmarks: dict[str, View] = dict(scene.views)
         self.fb_size = glfw.get_framebuffer_size(self.window)
         self._init_imgui()
+        glfw.set_drop_callback(self.window, self._dropped)
         if getattr(args, "compare", None):
             self.set_compare(args.compare)
         if getattr(args, "bookmarks", None):  # keys 1-9 and the panel's buttons follow the file
@@ -177,9 +180,27 @@ class Viewer:
         self.bookmarks = views
         self.panel.message = f"loaded {len(views)} bookmarks"
 
+    def _dropped(self, window, paths) -> None:
+        """A file dropped on the window: the first scene file among them is opened."""
+        from scenes.loaders import EXTENSIONS
+
+        scenes = [p for p in paths if Path(p).suffix.lower() in EXTENSIONS]
+        if scenes:
+            self.request_scene(scenes[0])
+        else:
+            self.panel.error = f"not a scene file ({', '.join(EXTENSIONS)}): {', '.join(paths)[:200]}"
+
     def screenshot(self, path: str | None = None) -> str:
+        """The window as a PNG (and the linear image as .npy): at `path`, or (F12) a new file in
+        the panel's screenshots folder, created if need be."""
         stamp = time.strftime("%Y%m%d-%H%M%S")
-        path = path or f"rtlab-{self.scene.name.replace(':', '_')}-{self.pass_name}-{stamp}.png"
+        if path is None:
+            folder = Path(self.screenshot_dir or ".")
+            try:
+                folder.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise UserError(f"cannot create the screenshots folder {folder}: {e.strerror}") from None
+            path = str(folder / f"rtlab-{self.scene.name.replace(':', '_')}-{self.pass_name}-{stamp}.png")
         w, h = self.fb_size
         data = np.frombuffer(self.ctx.screen.read(viewport=(0, 0, w, h), components=3), np.uint8)
         write_png(path, data.reshape(h, w, 3)[::-1])
@@ -217,6 +238,8 @@ class Viewer:
             self.show_ui = not self.show_ui
         if pressed(K.p):
             self.show_profiler = not self.show_profiler
+        if pressed(K.f1) or pressed(K.h):
+            self.show_help = not self.show_help
         if pressed(K.r):
             self.renderer.reset()
         if pressed(K.f12):
@@ -243,6 +266,9 @@ class Viewer:
             self.panel.draw_profiler(imgui)
         if self.comparison is not None:
             self._split_overlay(imgui)
+        self._status_overlay(imgui)
+        if self.show_help:
+            self.panel.draw_help(imgui)
         imgui.render()
         if self.pending_scene:
             self._load_pending_scene()
@@ -262,6 +288,36 @@ class Viewer:
                 self.panel.error = str(e)
             self._show(w, h)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+
+    def _status_overlay(self, imgui) -> None:
+        """Never an old image under a new name: while the image on screen is of another scene or
+        pass than the one selected, it is dimmed and says so; while a frame is traced, which one,
+        and how far accumulation has come."""
+        io = imgui.get_io()
+        w, h = io.display_size.x, io.display_size.y
+        right = self.split * w if self.comparison is not None else w
+        want = f"{self.scene.name}: {self.pass_name}"
+        draw = imgui.get_background_draw_list()
+        lines = []
+        if self.main.shown_label and self.main.shown_label != want:
+            draw.add_rect_filled((0, 0), (right, h), imgui.get_color_u32((0.0, 0.0, 0.0, 0.55)))
+            lines.append(f"old image: {self.main.shown_label}")
+            lines.append(f"tracing {want}...")
+        elif self.main.busy and self.renderer.frame_count == 0:
+            lines.append(f"tracing {want}...")
+        limit = int(self.options.get("max_frames"))
+        if self.main.busy and limit and self.renderer.frame_count < limit:
+            fps = self.main.shown_fps()
+            eta = f", {(limit - self.renderer.frame_count) / fps:.0f} s left" if fps > 0 else ""
+            lines.append(f"frame {self.renderer.frame_count} of {limit}{eta}")
+        y = h / 2 - 12 * len(lines)
+        for text in lines:
+            size = imgui.calc_text_size(text)
+            x = max((right - size.x) / 2, 4)
+            draw.add_rect_filled((x - 6, y - 3), (x + size.x + 6, y + size.y + 3),
+                                 imgui.get_color_u32((0.0, 0.0, 0.0, 0.75)))
+            draw.add_text((x, y), imgui.get_color_u32((1.0, 0.85, 0.4, 1.0)), text)
+            y += size.y + 10
 
     def _split_overlay(self, imgui) -> None:
         """The divider (drag it with the left mouse button) and each side's label."""

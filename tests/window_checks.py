@@ -24,6 +24,64 @@ def _screen(v) -> np.ndarray:
     return data.reshape(h, w, 3)[::-1].astype(int)
 
 
+def test_switching_pass_never_shows_the_old_image_under_the_new_name():
+    """Until the new pass's first frame is finished, the old image stays dimmed and named as old."""
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(size="200x120"))
+    v.show_ui = v.show_profiler = False
+    try:
+        v.frame(0.016)
+        v.wait_for_frame()
+        v.frame(0.016, start_new=False)
+        bright = _screen(v).mean()
+        assert v.main.shown_label == "arcade: forward"
+        v.pass_name = "gi"
+        v.frame(0.016)  # the gi frame is traced on the worker: the forward image stays, dimmed
+        assert v.main.busy and v.main.shown_label == "arcade: forward"
+        assert _screen(v).mean() < 0.7 * bright, "the old image is not dimmed"
+        v.wait_for_frame()
+        assert v.main.shown_label == "arcade: gi"
+        v.frame(0.016, start_new=False)
+        assert _screen(v).mean() > 0.5 * bright  # no longer dimmed (gi may be darker than forward)
+    finally:
+        v.close()
+
+
+def test_dropping_a_file_opens_it():
+    from app.viewer import Viewer
+
+    v = Viewer(view_args())
+    try:
+        v._dropped(v.window, ["/nowhere/readme.txt"])
+        assert "not a scene file" in v.panel.error
+        v._dropped(v.window, ["notes.txt", "cafe"])  # no scene file extension: still refused
+        assert v.pending_scene is None
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "tri.obj"
+            path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+            v._dropped(v.window, [str(path)])
+            v.frame(0.016)
+            assert v.scene.name == "tri"
+    finally:
+        v.close()
+
+
+def test_f12_writes_into_the_screenshots_folder():
+    from app.viewer import Viewer
+
+    v = Viewer(view_args())
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            v.screenshot_dir = str(Path(folder) / "shots")
+            v.frame(0.016)
+            v.wait_for_frame()
+            path = Path(v.screenshot())
+            assert path.parent == Path(folder) / "shots" and path.exists() and path.with_suffix(".npy").exists()
+    finally:
+        v.close()
+
+
 def test_bookmarks_file_drives_keys_and_buttons():
     import json
 
