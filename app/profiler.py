@@ -7,8 +7,13 @@ from contextlib import contextmanager
 
 
 class Profiler:
-    def __init__(self, history: int = 120):
+    """deferred: GPU times are read a frame late (two timer queries per pass, alternating), so
+    reading them never waits for the GPU (the viewer); otherwise right away (shot, bench)."""
+
+    def __init__(self, history: int = 120, deferred: bool = False):
         self.history = history
+        self.deferred = deferred
+        self._pending: dict = {}  # (context, pass) -> (query, started) issued last time, read next time
         self.samples: dict[str, deque] = defaultdict(lambda: deque(maxlen=self.history))
         self.kind: dict[str, str] = {}
         self.frame: dict[str, float] = {}
@@ -34,7 +39,12 @@ class Profiler:
 
     @contextmanager
     def gpu(self, ctx, name: str):
-        """GPU time of the GL commands issued inside (a timer query; waits for the result)."""
+        """GPU time of the GL commands issued inside (a timer query). Not deferred: waits for the
+        result. Deferred: records the previous use's time, whose query is done by now."""
+        if self.deferred:
+            with self._deferred(ctx, name):
+                yield
+            return
         q = self._queries.get((id(ctx), name))
         if q is None:
             q = self._queries[(id(ctx), name)] = ctx.query(time=True)
@@ -45,6 +55,23 @@ class Profiler:
         if ns >= 2**32 - 1:  # moderngl reads the query as 32 bits: past ~4.3 s it saturates
             ns = (time.perf_counter() - t0) * 1e9  # the wall time (elapsed waited for the GPU)
         self.record(name, ns / 1e6, "gpu")
+
+    @contextmanager
+    def _deferred(self, ctx, name: str):
+        key = (id(ctx), name)
+        pair = self._queries.get(key)
+        if pair is None:
+            pair = self._queries[key] = [ctx.query(time=True), ctx.query(time=True), 0]
+        q = pair[pair[2]]
+        with q:
+            yield
+        previous = self._pending.get(key)
+        self._pending[key] = q
+        pair[2] ^= 1  # the other query next time
+        if previous is not None:
+            ns = previous.elapsed
+            if 0 <= ns < 2**32 - 1:  # a saturated 32-bit read is never shown
+                self.record(name, ns / 1e6, "gpu")
 
     def begin_frame(self) -> None:
         self.frame = {}

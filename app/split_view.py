@@ -11,6 +11,7 @@ from collections import deque
 import numpy as np
 
 from app.compare import DIFF, flip_map
+from app.profiler import Profiler
 from app.renderer import Renderer
 
 FLIP_INTERVAL_S = 0.5  # the diff map is recomputed at most this often (FLIP runs on the CPU)
@@ -92,7 +93,7 @@ class Comparison:
 
     def __init__(self, ctx, scene, options, mode: str, pool):
         self.ctx, self.mode = ctx, mode
-        renderer = Renderer(ctx, scene, options)
+        renderer = Renderer(ctx, scene, options, Profiler(deferred=True))
         renderer.reuse_static_frames = True
         self.track = Track(renderer, pool)
         self.flip_texture = None

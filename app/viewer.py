@@ -25,6 +25,7 @@ from app.headless import parse_size
 from app.image_io import write_npy, write_png
 from app.options import Options
 from app.passes import check_pass
+from app.profiler import Profiler
 from app.renderer import Renderer
 from app.split_view import Comparison, Track
 from app.ui_panel import Panel
@@ -67,7 +68,7 @@ class Viewer:
         glfw.swap_interval(0)  # vsync off: frame times mean something
         self.ctx = wrap_current_context()
         self.scene = scene
-        self.renderer = Renderer(self.ctx, scene, self.options)
+        self.renderer = Renderer(self.ctx, scene, self.options, Profiler(deferred=True))
         self.renderer.reuse_static_frames = True
         self.resolution_scale = 1.0  # of the window, for every frame
         self.motion_scale = 0.5  # extra scale while the camera moves, so flying stays interactive

@@ -187,3 +187,20 @@ def test_profiler_shows_the_passes_of_the_last_finished_frame_only(gl):
     assert "ao" in r.profiler.finished and "forward_lighting" not in r.profiler.finished
     assert r.profiler.finished_counters["rays"] > 0
     r.release()
+
+
+def test_deferred_profiler_reads_each_query_a_frame_late(gl):
+    """The viewer's profiler: a pass's GPU time appears one use later (the query read then is
+    done, so reading never waits), and a saturated 32-bit read is never shown."""
+    from app.profiler import Profiler
+
+    scene = build_builtin("street")
+    r = Renderer(gl, scene, Options(), Profiler(deferred=True))
+    r.reuse_static_frames = False
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    r.render(cam, 48, 27, "forward")
+    assert "gbuffer" not in r.profiler.samples  # issued, not read yet
+    r.render(cam, 48, 27, "forward")
+    r.render(cam, 48, 27, "forward")
+    assert len(r.profiler.samples["gbuffer"]) == 2 and min(r.profiler.samples["gbuffer"]) >= 0
+    r.release()

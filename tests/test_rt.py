@@ -519,3 +519,16 @@ def test_frame_keys_are_each_chunks_own(gl):
     assert np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(2)), PixelRng(7, 3, gb.index[5:70], 2).key)
     assert not np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(3)), PixelRng(7, 3, gb.index[5:70], 2).key)
     r.release()
+
+
+@pytest.mark.parametrize("tracer", ["embree", "vulkan"])
+def test_views_of_the_sky_alone(gl, tracer):
+    """Found by the viewer's UI fuzz: G-buffer views with gbuffer=rt where no pixel is covered."""
+    from tests.scenes_for_tests import lit_plane
+
+    scene = lit_plane()
+    cam = Camera(np.array([0.0, 5.0, 0.0]), np.array([0.0, 10.0, 0.0]), np.array([0.0, 0.0, 1.0]), 60)
+    cam.fit_clip(scene.diagonal)
+    for name in ("albedo", "normal", "roughness", "metallic", "depth", "motion", "ao", "gi", "reflections"):
+        img = run(gl, scene, name, size=(16, 12), camera=cam, sets=("gbuffer=rt", f"tracer={tracer}"))
+        assert np.isfinite(img).all(), name

@@ -152,6 +152,64 @@ def test_flying_in_a_ray_traced_pass_shows_frames():
         v.close()
 
 
+def _ui_fuzz(seed: int, steps: int) -> None:
+    """Random user actions, as the panel, keys, mouse and window make them: passes, scenes (and
+    bad files), options (valid and not), the split view, bookmarks, resizing, flying, dropping
+    files, screenshots. No exception may escape; a user's mistake shows in the panel."""
+    import random
+
+    from app.fly_camera import FlyInput
+    from app.passes import ALL
+    from app.viewer import Viewer
+    from core.errors import UserError
+
+    rng = random.Random(seed)
+    v = Viewer(view_args(size="160x100"))
+    values = {"exposure": ["0.5", "2", "-1", "nan"], "env": ["sky", "black", "1,2,3", "x"],
+              "accumulate": ["true", "false"], "max_frames": ["0", "3", "-2"], "gbuffer": ["raster", "rt", "?"],
+              "ao.radius": ["0.3", "1e9", "0"], "gi.rays_per_pixel": ["1", "2", "65"],
+              "shadows.lights": ["one", "all", "none"], "reflections.max_depth": ["1", "3", "x"]}
+    with tempfile.TemporaryDirectory() as folder:
+        v.screenshot_dir = folder
+        actions = [
+            lambda: setattr(v, "pass_name", rng.choice(ALL)),
+            lambda: v.request_scene(rng.choice(["arcade", "cafe", "street:1", str(Path(folder) / "none.glb"),
+                                                "nonsense"])),
+            lambda: v.options.set(*rng.choice([(k, rng.choice(vs)) for k, vs in values.items()])),
+            lambda: v.set_compare(rng.choice([None, "forward", "albedo", "ao", "diff", "nope"])),
+            lambda: v.swap_sides(),
+            lambda: setattr(v, "split", rng.random()),
+            lambda: v.go_to_view(rng.choice(list(v.bookmarks))),
+            lambda: v.glfw.set_window_size(v.window, rng.choice([1, 80, 160, 240]), rng.choice([1, 60, 100])),
+            lambda: v._dropped(v.window, [rng.choice(["x.txt", str(Path(folder) / "gone.obj")])]),
+            lambda: v.screenshot(),
+            lambda: v.renderer.reset(),
+            lambda: setattr(v, "show_ui", not v.show_ui),
+            lambda: v.load_bookmarks(str(Path(folder) / "missing.json")),
+        ]
+        try:
+            for _ in range(steps):
+                try:
+                    rng.choice(actions)()
+                except UserError as e:  # what the panel shows for a user's mistake
+                    v.panel.error = str(e)
+                for _ in range(rng.randint(1, 3)):
+                    v.glfw.poll_events()
+                    move = tuple(rng.choice([-1.0, 0.0, 1.0]) for _ in range(3))
+                    v.fly.update(0.016, FlyInput(move=move, look=(rng.uniform(-5, 5), rng.uniform(-5, 5))))
+                    v.frame(0.016)
+            v.wait_for_frame()
+            if v.renderer.frame is not None:
+                assert np.isfinite(v.renderer.read_linear()).all()
+        finally:
+            v.close()
+
+
+def test_ui_fuzz():
+    for seed in (1, 2, 3):
+        _ui_fuzz(seed, 60)
+
+
 def test_every_mode_renders_in_a_window():
     from app.passes import ALL
     from app.viewer import Viewer

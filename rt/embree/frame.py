@@ -129,7 +129,8 @@ class RtFrame:
 
         out = np.full((self.gb.n,) + values.shape[1:], fill, np.float32)
         v = np.ascontiguousarray(values, np.float32)
-        scatter_rows(out.reshape(self.gb.n, -1), self.gb.index, v.reshape(v.shape[0], -1))
+        width = int(np.prod(values.shape[1:]))  # not -1: no pixel covered is a shape (0, ...) too
+        scatter_rows(out.reshape(self.gb.n, width), self.gb.index, v.reshape(v.shape[0], width))
         return out
 
 
