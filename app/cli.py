@@ -132,7 +132,8 @@ def cmd_warmup(args) -> int:
                 ("gi", ["gi.bounces=2", "gi.shadows=false"]), ("reflections", ["reflections.max_depth=2"]),
                 ("reference", []), ("hybrid", ["hybrid.gi=true", "hybrid.reflections=true"]),
                 ("normal", ["gbuffer=rt"])]
-    for pass_name, sets in variants:
+    for k, (pass_name, sets) in enumerate(variants):
+        print(f"{PROG}: warmup {k + 1}/{len(variants)}: {pass_name} ({time.perf_counter() - t0:.0f} s)", flush=True)
         options = Options()
         options.apply(sets)
         renderer = Renderer(ctx, scene, options)

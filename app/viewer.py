@@ -29,7 +29,9 @@ from app.profiler import Profiler
 from app.renderer import Renderer
 from app.split_view import Comparison, Track
 from app.ui_panel import Panel
+from app.warmup import BackgroundWarmup
 from core.errors import UserError
+from rt.embree.process import kernels_cached
 from scenes.builtin import DEFAULT_SCENE
 from scenes.loaders import load_scene
 from scenes.model import View
@@ -83,6 +85,7 @@ class Viewer:
         self.show_ui = True
         self.show_profiler = True
         self.show_help = False  # F1
+        self.warmup = None if kernels_cached() else BackgroundWarmup()  # a cold start compiles while you look
         self.screenshot_dir = "rtlab-screenshots"  # F12 writes here (the panel names it)
         self.frame_times: deque = deque(maxlen=240)
         self.panel = Panel(self)
@@ -300,6 +303,12 @@ class Viewer:
         want = f"{self.scene.name}: {self.pass_name}"
         draw = imgui.get_background_draw_list()
         lines = []
+        if self.warmup is not None:
+            if self.warmup.running:
+                lines.append(self.warmup.status)
+            else:
+                self.panel.error = self.panel.error or self.warmup.failed
+                self.warmup = None
         if self.main.shown_label and self.main.shown_label != want:
             draw.add_rect_filled((0, 0), (right, h), imgui.get_color_u32((0.0, 0.0, 0.0, 0.55)))
             lines.append(f"old image: {self.main.shown_label}")
@@ -393,6 +402,8 @@ class Viewer:
         return 0
 
     def close(self) -> None:
+        if self.warmup is not None:
+            self.warmup.stop()
         self._drop_job()
         self.pool.shutdown(wait=True)
         imgui = self.imgui

@@ -210,6 +210,36 @@ def test_ui_fuzz():
         _ui_fuzz(seed, 60)
 
 
+def test_cold_start_compiles_in_the_background():
+    """Without compiled kernels, the viewer starts `rtlab warmup` in a background process at once,
+    says so on screen with its progress, and stops it when the window closes."""
+    import os
+
+    from app.viewer import Viewer
+
+    with tempfile.TemporaryDirectory() as folder:
+        old = os.environ.get("NUMBA_CACHE_DIR")
+        os.environ["NUMBA_CACHE_DIR"] = folder  # an empty cache: a cold start
+        try:
+            v = Viewer(view_args(size="160x100"))
+        finally:
+            if old is None:
+                del os.environ["NUMBA_CACHE_DIR"]
+            else:
+                os.environ["NUMBA_CACHE_DIR"] = old
+        try:
+            assert v.warmup is not None and v.warmup.running
+            deadline = time.time() + 120
+            while "warmup" not in v.warmup.status and "1/" not in v.warmup.status and time.time() < deadline:
+                v.frame(0.016)
+                time.sleep(0.2)
+            assert "compiling ray-tracing kernels in the background: 1/" in v.warmup.status, v.warmup.status
+            process = v.warmup.process
+        finally:
+            v.close()
+        assert process.poll() is not None, "the background compile outlived the window"
+
+
 def test_every_mode_renders_in_a_window():
     from app.passes import ALL
     from app.viewer import Viewer
