@@ -69,6 +69,10 @@ class MeshArrays:
                 offset += h * w
         self.tex_data = np.ascontiguousarray(np.concatenate(chunks), np.float32)
         self.has_alpha = bool((self.alpha_cutoff >= 0).any())
+        # per triangle its 3 vertex colours (glTF COLOR_0, times the base colour), or one white row
+        colors = getattr(scene, "colors", None)
+        self.tri_colors = (np.ones((1, 9), np.float32) if colors is None else
+                           np.ascontiguousarray(np.asarray(colors, np.float32)[self.indices].reshape(-1, 9)))
         diagonal = scene.diagonal  # a pass over every vertex: once
         self.eps = np.float32(max(diagonal * 2e-5, 1e-5))
         self.far = np.float32(max(diagonal * 4.0, 1.0))

@@ -164,6 +164,7 @@ class Scene:
     # ambient radiance an artist would set for a raster engine; only the forward baseline uses it
     ambient: tuple = (0.0, 0.0, 0.0)
     tangents: np.ndarray | None = None  # (V,4) float32 xyz tangent, w handedness; where normal maps are used
+    colors: np.ndarray | None = None  # (V,3) float32 linear vertex colours (glTF COLOR_0), times the base colour
 
     # -- derived data -----------------------------------------------------------------
     @property
@@ -301,6 +302,11 @@ class Scene:
         if not self.materials or self.material_ids.min() < 0 or self.material_ids.max() >= len(self.materials):
             raise UserError(f"{self.name}: material ids out of range")
         self.normals = fix_normals(self.normals)
+        if self.colors is not None:
+            self.colors = np.ascontiguousarray(self.colors, np.float32).reshape(-1, 3)
+            if self.colors.shape[0] != v:
+                raise UserError(f"{self.name}: vertex colours do not match the vertex count")
+            self.colors = np.clip(np.where(np.isfinite(self.colors), self.colors, 1.0), 0.0, 1.0).astype(np.float32)
         if self.tangents is not None:
             self.tangents = np.ascontiguousarray(self.tangents, np.float32).reshape(-1, 4)
             if self.tangents.shape[0] != v or not np.isfinite(self.tangents).all():

@@ -7,6 +7,9 @@ in vec3 v_position;
 in vec3 v_normal;
 in vec2 v_uv;
 in vec4 v_tangent;
+#ifdef HAS_VERTEX_COLORS
+in vec3 v_color;
+#endif
 in vec4 v_clip;
 in vec4 v_prev_clip;
 
@@ -98,6 +101,9 @@ float point_visibility(int slot, vec3 light_pos, vec3 p, vec3 ng, float near, fl
 
 void main() {
     MaterialSample m = fetch_material(triangle_material(gl_PrimitiveID), v_uv);
+#ifdef HAS_VERTEX_COLORS
+    m.albedo *= v_color;
+#endif
     if (m.cutoff >= 0.0 && m.alpha < m.cutoff) discard;  // alpha MASK, as in the G-buffer
     vec3 v = normalize(eye - v_position);
     vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));

@@ -5,6 +5,9 @@ in vec3 v_position;
 in vec3 v_normal;
 in vec2 v_uv;
 in vec4 v_tangent;
+#ifdef HAS_VERTEX_COLORS
+in vec3 v_color;
+#endif
 in vec4 v_clip;
 in vec4 v_prev_clip;
 uniform vec3 eye;
@@ -18,6 +21,9 @@ layout(location = 4) out vec4 out_face;       // xyz face normal (faces the eye)
 layout(location = 5) out vec2 out_motion;     // pixels moved since the previous frame
 void main() {
     MaterialSample m = fetch_material(triangle_material(gl_PrimitiveID), v_uv);
+#ifdef HAS_VERTEX_COLORS
+    m.albedo *= v_color;
+#endif
     if (m.cutoff >= 0.0 && m.alpha < m.cutoff) discard;  // alpha MASK (BLEND drawn as MASK)
     vec3 to_eye = eye - v_position;
     vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));

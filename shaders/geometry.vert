@@ -10,6 +10,10 @@ out vec3 v_position;
 out vec3 v_normal;
 out vec2 v_uv;
 out vec4 v_tangent;
+#ifdef HAS_VERTEX_COLORS
+in vec3 in_color;    // glTF COLOR_0, linear: times the base colour
+out vec3 v_color;
+#endif
 out vec4 v_clip;
 out vec4 v_prev_clip;
 void main() {
@@ -17,6 +21,9 @@ void main() {
     v_normal = in_normal;
     v_uv = in_uv;
     v_tangent = in_tangent;
+#ifdef HAS_VERTEX_COLORS
+    v_color = in_color;
+#endif
     v_clip = view_proj * vec4(in_position, 1.0);
     v_prev_clip = prev_view_proj * vec4(in_position, 1.0);
     gl_Position = v_clip;

@@ -149,3 +149,27 @@ def test_dark_albedo_survives_the_packed_gbuffer(gl, tracer):
     covered = img.sum(-1) > 0
     assert covered.sum() > 100
     np.testing.assert_allclose(np.median(img[covered], axis=0), albedo, rtol=0.02)
+
+
+@pytest.mark.parametrize("pass_name,sets", [("albedo", ()), ("albedo", ("gbuffer=rt",)),
+                                            ("albedo", ("gbuffer=rt", "tracer=vulkan"))])
+def test_vertex_colours_tint_the_base_colour(gl, tmp_path, pass_name, sets):
+    """COLOR_0 (linear) times baseColorFactor, interpolated over the triangle."""
+    doc = textured_scene([{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1], "metallicFactor": 0}}], [],
+                         [((0, 0, 0), 4, 0, "up")], [])
+    colours = np.array([[1, 0, 0], [1, 0, 0], [0, 0, 1], [0, 0, 1]], np.float32)  # x: -2..2 red, z: -2 red, +2 blue
+    blob = __import__("base64").b64decode(doc["buffers"][0]["uri"].split(",", 1)[1]) + colours.tobytes()
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob) - colours.nbytes, "byteLength": colours.nbytes})
+    doc["accessors"].append({"bufferView": len(doc["bufferViews"]) - 1, "componentType": 5126, "count": 4,
+                             "type": "VEC3"})
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = len(doc["accessors"]) - 1
+    doc["buffers"][0] = {"byteLength": len(blob),
+                         "uri": "data:application/octet-stream;base64," + __import__("base64").b64encode(blob).decode()}
+    scene = _write(tmp_path, doc)
+    assert scene.colors is not None
+    cam = parse_camera("eye=0,3,0;target=0,0,0;up=0,0,-1;fov=60", scene)
+    img = run(gl, scene, pass_name, size=(32, 32), camera=cam, sets=sets)
+    z = (2 * (np.arange(32) + 0.5) / 32 - 1) * 3 * np.tan(np.radians(30))  # each row's z (image top: -z)
+    t = (z + 2) / 4  # red at z = -2 to blue at z = +2
+    want = np.stack([0.5 * (1 - t), np.zeros(32), t], 1)  # times baseColorFactor (0.5, 1, 1)
+    np.testing.assert_allclose(img[:, 12:20].mean(axis=1), want, atol=0.03)

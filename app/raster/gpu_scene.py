@@ -75,6 +75,7 @@ class GpuScene:
         self.vbo_nrm = ctx.buffer(scene.normals.astype("f4").tobytes())
         self.vbo_uv = ctx.buffer(scene.uvs.astype("f4").tobytes())
         self.vbo_tan = ctx.buffer(scene.tangents.astype("f4").tobytes()) if scene.tangents is not None else None
+        self.vbo_col = ctx.buffer(scene.colors.astype("f4").tobytes()) if scene.colors is not None else None
         self.ibo = ctx.buffer(scene.indices.astype("i4").tobytes())
         t = scene.triangle_count
         rows = (t + TRI_TEX_WIDTH - 1) // TRI_TEX_WIDTH
@@ -124,6 +125,7 @@ class GpuScene:
         names = ("HAS_BASE_TEXTURES", "HAS_ORM_TEXTURES", "HAS_NORMAL_MAPS", "HAS_EMISSION_TEXTURES")
         self.defines = tuple(name for name, k in zip(names, used, strict=True) if k)
         self.defines += ("HAS_ALPHA_MASKS",) if self.alpha_tested else ()
+        self.defines += ("HAS_VERTEX_COLORS",) if self.scene.colors is not None else ()
         self.material_table = ctx.texture((table.shape[0], 1), 4, table.tobytes(), dtype="f4")
         self.material_table.filter = (ctx.NEAREST, ctx.NEAREST)
         self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers.tobytes(), dtype="f2")
@@ -155,6 +157,8 @@ class GpuScene:
                     content.append((self.vbo_uv, "2f", "in_uv"))
                 if "in_tangent" in prog and self.vbo_tan is not None:  # else GL's default (0, 0, 0, 1)
                     content.append((self.vbo_tan, "4f", "in_tangent"))
+                if "in_color" in prog and self.vbo_col is not None:  # only compiled in with HAS_VERTEX_COLORS
+                    content.append((self.vbo_col, "3f", "in_color"))
             self._vaos[key] = (prog, self.ctx.vertex_array(prog, content, index_buffer=self.ibo, index_element_size=4))
         return self._vaos[key]
 
@@ -183,7 +187,7 @@ class GpuScene:
         return self.env_cube, self.ambient_lut
 
     def release(self) -> None:
-        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.ibo, self.tri_materials,
+        for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.vbo_col, self.ibo, self.tri_materials,
                     self.material_table, self.textures, self.env_cube, self.ambient_lut):
             if obj is not None:
                 obj.release()

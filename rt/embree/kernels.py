@@ -121,7 +121,7 @@ def uniforms(keys, dim0, k, out):
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
 def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, roughness, metallic, emissive,
-               tex_offset, tex_w, tex_h, wrap, tex_data, P, N, NG, albedo, rough, metal, emis):
+               tex_offset, tex_w, tex_h, wrap, tex_data, colors, P, N, NG, albedo, rough, metal, emis):
     """Surface data at the hits of rays sel[k] (written at k): position, normals facing the ray
     (the shading normal normal-mapped), textured albedo, roughness, metallic and emission.
     corners: per triangle its 3 vertex normals, 3 uvs, material and tangents (rt/mesh.py), so
@@ -157,10 +157,14 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
             nx, ny, nz = -nx, -ny, -nz
         N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
         found, r, g, b, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_BASE, u, v)
-        if found:
-            albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
-        else:
-            albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0], base_color[m, 1], base_color[m, 2]
+        if not found:
+            r = g = b = 1.0
+        if colors.shape[0] > 1:  # vertex colours (colors: one white row where the scene has none)
+            vc = colors[tri]
+            r *= w0 * vc[0] + w1 * vc[3] + w2 * vc[6]
+            g *= w0 * vc[1] + w1 * vc[4] + w2 * vc[7]
+            b *= w0 * vc[2] + w1 * vc[5] + w2 * vc[8]
+        albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
         found, _, r, g, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_ORM, u, v)
         rough[k] = r if found else roughness[m]
         metal[k] = g if found else metallic[m]

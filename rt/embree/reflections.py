@@ -21,8 +21,8 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, refl):
     dim0..dim0+3) and its colour; refl[k] gains the environment where ray k missed. Returns
     the rays that hit (hits), every ray's direction (d), the hits' shading (P, N, NG, albedo,
     roughness, metallic, emission), colour and keys, and the rays traced."""
-    corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data = (
-        scene.mesh)
+    (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
+     colors) = scene.mesh
     env_kind, env_color, horizon, zenith, ground = frame.env
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
@@ -38,7 +38,7 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, refl):
                                 np.empty((k, 3), np.float32))
     hrough, hmetal = np.empty(k, np.float32), np.empty(k, np.float32)
     _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic, emission,
-                tex_offset, tex_w, tex_h, wrap, tex_data, HP, HN, HNG, halb, hrough, hmetal, hemis)
+                tex_offset, tex_w, tex_h, wrap, tex_data, colors, HP, HN, HNG, halb, hrough, hmetal, hemis)
     hkeys = np.empty(k, np.uint64)
     gather.gather_keys(keys, owner, hits, k, hkeys)
     hdirect = np.zeros((k, 3), np.float32)

@@ -82,15 +82,15 @@ class SceneData(MeshArrays):
             kernels.shade_hits(sel, hits.prim, hits.u, hits.v, hits.t, np.ascontiguousarray(origins, np.float32),
                                np.ascontiguousarray(dirs, np.float32), self.corners, self.face_normals,
                                self.base_color, self.roughness, self.metallic, self.emissive, self.tex_offset,
-                               self.tex_w, self.tex_h, self.wrap, self.tex_data, out.p, out.n, out.ng, out.albedo,
-                               out.roughness, out.metallic, out.emissive)
+                               self.tex_w, self.tex_h, self.wrap, self.tex_data, self.tri_colors, out.p, out.n,
+                               out.ng, out.albedo, out.roughness, out.metallic, out.emissive)
         return out
 
     @property
     def mesh_args(self) -> tuple:
         """What surface() shades hits with, for compiled kernels that shade hits themselves."""
         return (self.corners, self.face_normals, self.base_color, self.roughness, self.metallic, self.emissive,
-                self.tex_offset, self.tex_w, self.tex_h, self.wrap, self.tex_data)
+                self.tex_offset, self.tex_w, self.tex_h, self.wrap, self.tex_data, self.tri_colors)
 
     @property
     def kernel_scene(self):

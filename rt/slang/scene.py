@@ -45,6 +45,9 @@ class DeviceScene:
         materials[:, 12:16], materials[:, 16:20], materials[:, 20:24] = a.tex_offset, a.tex_w, a.tex_h
         self.materials = buffer(materials)
         self.texels = buffer(a.tex_data)
+        colors = a.tri_colors.reshape(-1, 3)  # 3 a triangle (or one white row): float4 each, as Slang reads them
+        self.colors = buffer(np.c_[colors, np.ones(len(colors), np.float32)])
+        self.has_colors = int(len(a.tri_colors) > 1)
         self._upload_lights(buffer)
 
     def _upload_lights(self, buffer) -> None:
@@ -117,6 +120,8 @@ class DeviceScene:
         cursor["materials"] = self.materials
         cursor["texels"] = self.texels
         cursor["corner_rows"] = self.corner_rows
+        cursor["colors"] = self.colors
+        cursor["has_colors"] = self.has_colors
 
     def bind_trace(self, cursor) -> None:
         """What trace.slang's rays need: the scene, its mesh (masked materials' alpha) and

@@ -234,7 +234,7 @@ class _Reader:
         check_memory(*self.estimate(self._drawn_nodes(roots)), self.path.name)
         mats, rules = self.materials()
         default_mat = len(mats) - 1
-        pos, nrm, uvs, idx, mid, tangents = [], [], [], [], [], []
+        pos, nrm, uvs, idx, mid, tangents, colors = [], [], [], [], [], [], []
         lights, views = [], {}
         light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
         count = 0
@@ -250,7 +250,7 @@ class _Reader:
                     if prim.get("mode", 4) != 4:
                         continue  # points and lines carry no surface
                     material = prim.get("material", default_mat)
-                    p, n, t, tan, tri = self._primitive(prim, node["mesh"], rules[material])
+                    p, n, t, tan, col, tri = self._primitive(prim, node["mesh"], rules[material])
                     wp = (p @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
                     if not np.isfinite(wp).all():
                         raise UserError(f"{self.path.name}: non-finite vertex positions in mesh {node['mesh']} "
@@ -270,6 +270,7 @@ class _Reader:
                     nrm.append(wn)
                     uvs.append(t)
                     tangents.append(tan if tan is not None else np.zeros((p.shape[0], 4), np.float32))
+                    colors.append(col)
                     idx.append(tri + count)
                     mid.append(np.full(tri.shape[0], material, np.int32))
                     count += p.shape[0]
@@ -287,12 +288,15 @@ class _Reader:
                       str(self.path))
         if any(mat.normal_map is not None for mat in mats):
             scene.tangents = np.concatenate(tangents)
+        if any(c is not None for c in colors):  # white where a primitive has none
+            scene.colors = np.concatenate([c if c is not None else np.ones((len(p_), 3), np.float32)
+                                           for c, p_ in zip(colors, pos, strict=True)])
         scene.validate()
         return scene
 
     def _primitive(self, prim: dict, mesh: int, rule: UvRule):
         """Positions, normals (or None), uvs (the material's set, transformed), tangents (or
-        None) and triangles of a triangle primitive."""
+        None), vertex colours (or None) and triangles of a triangle primitive."""
         attrs = prim["attributes"]
         p = self.accessor(attrs["POSITION"]).astype(np.float32)
         if not np.isfinite(p).all():
@@ -320,11 +324,10 @@ class _Reader:
         tan = self.accessor(attrs["TANGENT"]).astype(np.float32) if "TANGENT" in attrs else None
         if tan is not None and not np.isfinite(tan).all():
             tan = None  # generated instead
-        if "COLOR_0" in attrs and "color" not in self._warned:
-            self._warned.add("color")
-            warnings.warn(f"{self.path.name}: vertex colours (COLOR_0) are not applied; materials use their "
-                          "base colour and textures", stacklevel=3)
-        return p, n, t, tan, tri
+        col = None
+        if "COLOR_0" in attrs:  # linear RGB(A), normalised integers or floats; alpha is not used
+            col = self.accessor(attrs["COLOR_0"]).astype(np.float32)[:, :3]
+        return p, n, t, tan, col, tri
 
     def _camera(self, cam: dict, node: dict, m: np.ndarray, views: dict) -> None:
         name = cam.get("name") or node.get("name") or f"camera_{len(views)}"
