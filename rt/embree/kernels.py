@@ -156,21 +156,23 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
         if nx * gx + ny * gy + nz * gz < 0:
             nx, ny, nz = -nx, -ny, -nz
         N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
-        found, r, g, b, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_BASE, u, v)
-        if not found:
-            r = g = b = 1.0
+        found, at = textures.texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)
+        r = g = b = 1.0
+        if found:
+            r, g, b = textures.mix(tex_data, at, 0), textures.mix(tex_data, at, 1), textures.mix(tex_data, at, 2)
         if colors.shape[0] > 1:  # vertex colours (colors: one white row where the scene has none)
             vc = colors[tri]
             r *= w0 * vc[0] + w1 * vc[3] + w2 * vc[6]
             g *= w0 * vc[1] + w1 * vc[4] + w2 * vc[7]
             b *= w0 * vc[2] + w1 * vc[5] + w2 * vc[8]
         albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
-        found, _, r, g, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_ORM, u, v)
-        rough[k] = r if found else roughness[m]
-        metal[k] = g if found else metallic[m]
-        found, r, g, b, _ = textures.layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_EMISSION, u, v)
+        found, at = textures.texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_ORM, u, v)
+        rough[k] = textures.mix(tex_data, at, 1) if found else roughness[m]
+        metal[k] = textures.mix(tex_data, at, 2) if found else metallic[m]
+        found, at = textures.texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_EMISSION, u, v)
         if found:
-            emis[k, 0], emis[k, 1], emis[k, 2] = r, g, b
+            emis[k, 0], emis[k, 1], emis[k, 2] = (textures.mix(tex_data, at, 0), textures.mix(tex_data, at, 1),
+                                                  textures.mix(tex_data, at, 2))
         else:
             emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
 

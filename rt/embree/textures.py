@@ -1,5 +1,6 @@
 """Texture layers at hit points (rt/mesh.py's flat RGBA texel array, one run per material and
-layer): bilinear samples with glTF's wrap modes, the alpha test that cuts masked surfaces
+layer): bilinear samples with glTF's wrap modes (the four texels found once, then only the
+channels a caller needs read), the alpha test that cuts masked surfaces
 (every ray's hits go through it: rt/embree/alpha.py), and normal mapping."""
 from __future__ import annotations
 
@@ -24,8 +25,9 @@ def wrap_index(i, n, mode):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def sample(tex_data, off, tw, th, wu, wv, u, v):
-    """Bilinear RGBA sample of the texture at tex_data[off:off + tw * th] (rows top first)."""
+def bilinear(off, tw, th, wu, wv, u, v):
+    """The four texel rows (top-left, top-right, bottom-left, bottom-right) of a bilinear
+    sample of the texture at tex_data[off:off + tw * th] (rows top first), and their weights."""
     u = min(max(u, -UV_LIMIT), UV_LIMIT)
     v = min(max(v, -UV_LIMIT), UV_LIMIT)
     x = u * tw - 0.5
@@ -35,30 +37,25 @@ def sample(tex_data, off, tw, th, wu, wv, u, v):
     xa, xb = wrap_index(int(x0), tw, wu), wrap_index(int(x0) + 1, tw, wu)
     ya, yb = wrap_index(int(y0), th, wv), wrap_index(int(y0) + 1, th, wv)
     r0, r1 = off + ya * tw, off + yb * tw
-    out0 = out1 = out2 = out3 = 0.0
-    for a in range(4):
-        top = tex_data[r0 + xa, a] * (1 - fx) + tex_data[r0 + xb, a] * fx
-        bot = tex_data[r1 + xa, a] * (1 - fx) + tex_data[r1 + xb, a] * fx
-        value = top * (1 - fy) + bot * fy
-        if a == 0:
-            out0 = value
-        elif a == 1:
-            out1 = value
-        elif a == 2:
-            out2 = value
-        else:
-            out3 = value
-    return out0, out1, out2, out3
+    return (r0 + xa, r0 + xb, r1 + xa, r1 + xb,
+            (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, k, u, v):
-    """(present, RGBA) of material m's layer k at (u, v)."""
+def mix(tex_data, at, a):
+    """Channel a of the bilinear sample at (bilinear's result)."""
+    i00, i01, i10, i11, w00, w01, w10, w11 = at
+    return (tex_data[i00, a] * w00 + tex_data[i01, a] * w01 + tex_data[i10, a] * w10 + tex_data[i11, a] * w11)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def texels(tex_offset, tex_w, tex_h, wrap, m, k, u, v):
+    """(present, bilinear rows and weights) of material m's layer k at (u, v): read only the
+    channels needed with mix()."""
     off = tex_offset[m, k]
     if off < 0:
-        return False, 0.0, 0.0, 0.0, 0.0
-    r, g, b, a = sample(tex_data, off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
-    return True, r, g, b, a
+        return False, (0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    return True, bilinear(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -79,7 +76,7 @@ def passes_alpha(corners, tex_offset, tex_w, tex_h, wrap, tex_data, cutoff, base
     alpha = base_alpha[m]
     if tex_offset[m, LAYER_BASE] >= 0:
         u, v = hit_uv(c, w1, w2)
-        alpha *= layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_BASE, u, v)[4]
+        alpha *= mix(tex_data, texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)[1], 3)
     return alpha >= cutoff[m]
 
 
@@ -89,7 +86,8 @@ def normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex_offset, tex_w, tex_h, 
     m's normal map in the frame of the interpolated vertex tangents (row columns 16..27)."""
     if tex_offset[m, LAYER_NORMAL] < 0 or c.shape[0] < 28:
         return nx, ny, nz
-    _, mx, my, mz, _ = layer(tex_offset, tex_w, tex_h, wrap, tex_data, m, LAYER_NORMAL, u, v)
+    at = texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_NORMAL, u, v)[1]
+    mx, my, mz = mix(tex_data, at, 0), mix(tex_data, at, 1), mix(tex_data, at, 2)
     tx = w0 * c[16] + w1 * c[20] + w2 * c[24]
     ty = w0 * c[17] + w1 * c[21] + w2 * c[25]
     tz = w0 * c[18] + w1 * c[22] + w2 * c[26]
