@@ -24,6 +24,7 @@ from app.gl_context import fullscreen, set_uniform, wrap_current_context
 from app.headless import parse_size
 from app.image_io import write_npy, write_png
 from app.options import Options
+from app.overlays import split_overlay, status_overlay
 from app.passes import check_pass
 from app.profiler import Profiler
 from app.renderer import Renderer
@@ -269,8 +270,8 @@ class Viewer:
         elif self.show_profiler:
             self.panel.draw_profiler(imgui)
         if self.comparison is not None:
-            self._split_overlay(imgui)
-        self._status_overlay(imgui)
+            split_overlay(self, imgui)
+        status_overlay(self, imgui)
         if self.show_help:
             self.panel.draw_help(imgui)
         imgui.render()
@@ -292,68 +293,6 @@ class Viewer:
                 self.panel.error = str(e)
             self._show(w, h)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
-
-    def _status_overlay(self, imgui) -> None:
-        """Never an old image under a new name: while the image on screen is of another scene or
-        pass than the one selected, it is dimmed and says so; while a frame is traced, which one,
-        and how far accumulation has come."""
-        io = imgui.get_io()
-        w, h = io.display_size.x, io.display_size.y
-        right = self.split * w if self.comparison is not None else w
-        want = f"{self.scene.name}: {self.pass_name}"
-        draw = imgui.get_background_draw_list()
-        lines = []
-        if self.warmup is not None:
-            if self.warmup.running:
-                lines.append(self.warmup.status)
-            else:
-                self.panel.error = self.panel.error or self.warmup.failed
-                self.warmup = None
-        if self.main.shown_label and self.main.shown_label != want:
-            draw.add_rect_filled((0, 0), (right, h), imgui.get_color_u32((0.0, 0.0, 0.0, 0.55)))
-            lines.append(f"old image: {self.main.shown_label}")
-            lines.append(f"tracing {want}...")
-        elif self.main.busy and self.renderer.frame_count == 0:
-            lines.append(f"tracing {want}...")
-        limit = int(self.options.get("max_frames"))
-        if self.main.busy and limit and self.renderer.frame_count < limit:
-            fps = self.main.shown_fps()
-            eta = f", {(limit - self.renderer.frame_count) / fps:.0f} s left" if fps > 0 else ""
-            lines.append(f"frame {self.renderer.frame_count} of {limit}{eta}")
-        y = h / 2 - 12 * len(lines)
-        for text in lines:
-            size = imgui.calc_text_size(text)
-            x = max((right - size.x) / 2, 4)
-            draw.add_rect_filled((x - 6, y - 3), (x + size.x + 6, y + size.y + 3),
-                                 imgui.get_color_u32((0.0, 0.0, 0.0, 0.75)))
-            draw.add_text((x, y), imgui.get_color_u32((1.0, 0.85, 0.4, 1.0)), text)
-            y += size.y + 10
-
-    def _split_overlay(self, imgui) -> None:
-        """The divider (drag it with the left mouse button) and each side's label."""
-        io = imgui.get_io()
-        scale = io.display_framebuffer_scale.x or 1.0
-        width = io.display_size.x
-        x = self.split * width
-        mouse = io.mouse_pos
-        near = abs(mouse.x - x) < 6 and 0 <= mouse.y < io.display_size.y
-        if imgui.is_mouse_clicked(0) and near and not io.want_capture_mouse:
-            self.dragging_split = True
-        if not imgui.is_mouse_down(0):
-            self.dragging_split = False
-        if self.dragging_split and width > 0:
-            self.split = float(min(max(mouse.x / width, 0.0), 1.0))
-        draw = imgui.get_foreground_draw_list()
-        colour = imgui.get_color_u32((1.0, 1.0, 1.0, 1.0 if (near or self.dragging_split) else 0.8))
-        draw.add_line((x, 0), (x, io.display_size.y), colour, 2.0 * scale)
-        left = f"{self.pass_name}: {self.renderer.frame_count} frames"
-        y = io.display_size.y - 24
-        dark = imgui.get_color_u32((0.0, 0.0, 0.0, 0.7))
-        for text, at_x in ((left, 8), (self.comparison.label, None)):
-            size = imgui.calc_text_size(text)
-            tx = at_x if at_x is not None else width - size.x - 8
-            draw.add_rect_filled((tx - 4, y - 2), (tx + size.x + 4, y + size.y + 2), dark)
-            draw.add_text((tx, y), imgui.get_color_u32((1.0, 1.0, 1.0, 1.0)), text)
 
     def _show(self, w: int, h: int) -> None:
         """The main image, and in a split view the comparison right of the divider, labelled."""
