@@ -17,6 +17,12 @@ from app.renderer import Renderer
 FLIP_INTERVAL_S = 0.5  # the diff map is recomputed at most this often (FLIP runs on the CPU)
 
 
+def _only_the_view_moved(old: tuple, new: tuple) -> bool:
+    """Renderer.state_of tuples that differ in the camera or size only (same scene, pass,
+    options and seed)."""
+    return (old[0], old[4], old[5], old[6]) == (new[0], new[4], new[5], new[6])
+
+
 class Track:
     """One renderer's frames in the viewer: prepare on the GL thread, compute on the pool,
     finish on the GL thread once done, if nothing changed meanwhile."""
@@ -52,10 +58,11 @@ class Track:
             job, future = self.job, self.future
             self.job = self.future = None
             future.result()  # re-raise a tracing error here
-            if job.state == r.state_of(camera, width, height, pass_name) and job.state == r._state:
-                r.finish(job)
+            now = r.state_of(camera, width, height, pass_name)
+            if job.state == r._state and (job.state == now or _only_the_view_moved(job.state, now)):
+                r.finish(job)  # while flying, frames a moment old are shown rather than none
                 self._finished(pass_name)
-            # else the camera, size or an option changed while tracing: the frame is stale
+            # else the scene, pass or an option changed while tracing: the frame is stale
         if not start_new:
             return
         job = r.prepare(camera, width, height, pass_name)

@@ -7,6 +7,7 @@ previous state.
 from __future__ import annotations
 
 import ctypes
+import gc
 import json
 import os
 import sys
@@ -158,6 +159,7 @@ class Viewer:
             return
         self.scene, self.scene_spec = scene, spec
         self.renderer.set_scene(scene)
+        gc.collect()  # the old scene's arrays (hundreds of MB for large scenes) go now
         if self.comparison is not None:
             self.comparison.set_scene(scene)
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)

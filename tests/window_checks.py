@@ -130,6 +130,28 @@ def test_split_view_shows_each_pass_on_its_side():
 
 
 
+def test_flying_in_a_ray_traced_pass_shows_frames():
+    """With a move key held the camera changes every UI frame; the traced frames (a moment old)
+    are shown rather than dropped as stale, so flying is not blind."""
+    from app.fly_camera import FlyInput
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(pass_name="ao", size="160x100"))
+    try:
+        v.frame(0.016)
+        v.wait_for_frame()
+        shown = len(v.main.shown_times)
+        deadline = time.time() + 60
+        while len(v.main.shown_times) < shown + 3 and time.time() < deadline:
+            v.glfw.poll_events()
+            v.fly.update(0.05, FlyInput(move=(0.0, 0.0, 1.0)))  # the key held down
+            v.frame(0.05)
+            time.sleep(0.01)
+        assert len(v.main.shown_times) >= shown + 3, "no frame shown while moving"
+    finally:
+        v.close()
+
+
 def _ui_fuzz(seed: int, steps: int) -> None:
     """Random user actions, as the panel, keys, mouse and window make them: passes, scenes (and
     bad files), options (valid and not), the split view, bookmarks, resizing, flying, dropping

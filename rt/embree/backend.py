@@ -71,4 +71,7 @@ class EmbreeBackend(Backend):
     def close(self) -> None:
         if self.tracer is not None:
             self.tracer.close()
+        if self.data is not None:  # SceneData and its LightSet point at each other: break the cycle,
+            self.data.lights = None  # so the scene's arrays go now, not at the next full collection
+            self.data._kernel_scene = None
         self.tracer, self.data, self.frame = None, None, None
