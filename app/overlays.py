@@ -14,11 +14,7 @@ def status_overlay(v, imgui) -> None:
     draw = imgui.get_background_draw_list()
     lines = []
     if v.warmup is not None:
-        if v.warmup.running:
-            lines.append(v.warmup.status)
-        else:
-            v.panel.error = v.panel.error or v.warmup.failed
-            v.warmup = None
+        lines.append(v.warmup.status)
     if v.main.shown_label and v.main.shown_label != want:
         draw.add_rect_filled((0, 0), (right, h), imgui.get_color_u32((0.0, 0.0, 0.0, 0.55)))
         lines.append(f"old image: {v.main.shown_label}")

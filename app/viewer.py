@@ -56,6 +56,10 @@ class Viewer:
         self.options = Options()
         self.options.apply(args.set or [])
         self.pass_name = check_pass(args.pass_name)
+        self.split = float(getattr(args, "split", 0.5))  # the divider, a fraction of the width
+        check_compare(self.pass_name, getattr(args, "compare", None), self.split)
+        # a bad bookmarks file or scene: one line before any window opens
+        bookmarks = read_bookmarks(args.bookmarks) if getattr(args, "bookmarks", None) else None
         scene = load_scene(self.scene_spec)
         if not glfw.init():
             raise UserError(NO_DISPLAY.format(scene=self.scene_spec))
@@ -81,7 +85,6 @@ class Viewer:
         self.pool = ThreadPoolExecutor(1, thread_name_prefix="rtlab-trace")
         self.main = Track(self.renderer, self.pool)
         self.comparison: Comparison | None = None  # the split view's right side
-        self.split = float(getattr(args, "split", 0.5))  # the divider, a fraction of the width
         self.dragging_split = False
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)
         self.show_ui = True
@@ -92,15 +95,14 @@ class Viewer:
         self.frame_times: deque = deque(maxlen=240)
         self.panel = Panel(self)
         self.pending_scene: str | None = None
-        self.bookmarks: dict[str, View] = dict(scene.views)
+        self.bookmarks: dict[str, View] = bookmarks or dict(scene.views)  # keys 1-9 and the panel's buttons
         self.fb_size = glfw.get_framebuffer_size(self.window)
         self._init_imgui()
         glfw.set_drop_callback(self.window, self._dropped)
         if getattr(args, "compare", None):
             self.set_compare(args.compare)
-        if getattr(args, "bookmarks", None):  # keys 1-9 and the panel's buttons follow the file
-            self.load_bookmarks(args.bookmarks)
-            self.panel.message = f"loaded {len(self.bookmarks)} bookmarks from {args.bookmarks}"
+        if bookmarks:
+            self.panel.message = f"loaded {len(bookmarks)} bookmarks from {args.bookmarks}"
 
     @property
     def job(self):
@@ -263,6 +265,7 @@ class Viewer:
     def frame(self, dt: float, start_new: bool = True) -> None:
         imgui, glfw = self.imgui, self.glfw
         self.fb_size = glfw.get_framebuffer_size(self.window)
+        self.renderer.profiler.collect()  # last frame's GPU times: done by now, read without a wait
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         imgui.new_frame()
@@ -271,6 +274,9 @@ class Viewer:
             self.panel.draw(imgui)
         elif self.show_profiler:
             self.panel.draw_profiler(imgui)
+        if self.warmup is not None and not self.warmup.running:  # the background compile ended
+            self.panel.error = self.panel.error or self.warmup.failed
+            self.warmup = None
         if self.comparison is not None:
             split_overlay(self, imgui)
         status_overlay(self, imgui)
@@ -397,10 +403,6 @@ def run_viewer(args) -> int:
         raise UserError(NO_DISPLAY.format(scene=scene))
     if args.screenshot and not args.exit_after:
         args.exit_after = 1
-    check_pass(args.pass_name)
-    check_compare(args.pass_name, getattr(args, "compare", None), getattr(args, "split", 0.5))
-    if getattr(args, "bookmarks", None):
-        read_bookmarks(args.bookmarks)  # a bad file: one line before any window opens
     from rt.backends import resolve
 
     gpu = resolve("auto")

@@ -196,14 +196,10 @@ class Scene:
         (so a panel that glows in one corner of its texture is a dim light, not a bright one)."""
         if getattr(self, "_emission", None) is not None:
             return self._emission
-        out = np.zeros((self.triangle_count, 3), np.float32)
-        for k, m in enumerate(self.materials):
-            tris = np.nonzero(self.material_ids == k)[0]
-            if tris.size == 0:
-                continue
-            if m.emissive_map is None:
-                out[tris] = m.emissive
-            else:
+        out = np.asarray([m.emissive for m in self.materials], np.float32).reshape(-1, 3)[self.material_ids]
+        for k, m in enumerate(self.materials):  # only the textured ones need their triangles found
+            if m.emissive_map is not None:
+                tris = np.nonzero(self.material_ids == k)[0]
                 out[tris] = footprint_mean(m.emissive_map, self.uvs[self.indices[tris]], m.wrap)
         self._emission = out
         return out

@@ -155,18 +155,21 @@ class SlangBackend(Backend):
                 staging = self._staging[name] = np.empty(packed[name].shape, np.uint32)
             np.copyto(staging, packed[name])
             buffers[name].copy_from_numpy(staging)
-        geometry, material = buffers["geometry"], buffers["material"]
-        if "unpack" not in self._pipelines:
-            self._pipelines["unpack"] = self.device.create_compute_kernel(
-                self.device.load_program("unpack.slang", ["unpack"]))
-        encoder = self.device.create_command_encoder()
-        self._pipelines["unpack"].dispatch(
-            thread_count=[w, h, 1], command_encoder=encoder,
-            vars={"g_geometry": geometry, "g_material": material, "g_gbuffer": self.gbuffer, "g_width": w,
-                  "g_height": h, "g_eye": np.asarray(cam.eye, np.float32), "g_right": right, "g_up": up,
-                  "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2))})
-        self.device.submit_command_buffer(encoder.finish())
+        self._compute("unpack", w, h, {
+            "g_geometry": buffers["geometry"], "g_material": buffers["material"], "g_gbuffer": self.gbuffer,
+            "g_width": w, "g_height": h, "g_eye": np.asarray(cam.eye, np.float32), "g_right": right, "g_up": up,
+            "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2))})
         self.gpu_ms = {}
+
+    def _compute(self, name: str, w: int, h: int, variables: dict) -> None:
+        """Dispatch the compute kernel `name` of shaders/rt/<name>.slang (entry point `name`,
+        compiled once) over w x h threads, and submit it."""
+        if name not in self._pipelines:
+            self._pipelines[name] = self.device.create_compute_kernel(
+                self.device.load_program(f"{name}.slang", [name]))
+        encoder = self.device.create_command_encoder()
+        self._pipelines[name].dispatch(thread_count=[w, h, 1], command_encoder=encoder, vars=variables)
+        self.device.submit_command_buffer(encoder.finish())
 
     def _bind_gbuffer(self, cursor) -> None:
         for name, buf in self.gbuffer.items():
@@ -276,15 +279,9 @@ class SlangBackend(Backend):
         w, h = inputs.width, inputs.height
         mean = self._buffer("accumulated", w * h, 16)
         display = self._buffer("display", w * h, 4)
-        if "present" not in self._pipelines:
-            self._pipelines["present"] = self.device.create_compute_kernel(
-                self.device.load_program("present.slang", ["present"]))
-        encoder = self.device.create_command_encoder()
-        self._pipelines["present"].dispatch(
-            thread_count=[w, h, 1], command_encoder=encoder,
-            vars={"g_radiance": radiance.buffer, "g_accumulated": mean, "g_display": display, "g_width": w,
-                  "g_height": h, "g_weight": float(weight), "g_exposure": float(exposure)})
-        self.device.submit_command_buffer(encoder.finish())
+        self._compute("present", w, h, {"g_radiance": radiance.buffer, "g_accumulated": mean, "g_display": display,
+                                        "g_width": w, "g_height": h, "g_weight": float(weight),
+                                        "g_exposure": float(exposure)})
         return Image(mean, w * h, 4), Rgba8(display, w, h)
 
     @_device_errors

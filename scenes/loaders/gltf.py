@@ -105,6 +105,7 @@ class _Reader:
         self.doc, self.bin, self.path = doc, bin_chunk, path
         self._buffers: dict[int, bytes] = {}
         self._textures: dict[tuple, np.ndarray | None] = {}
+        self._images: dict[int, bytes | None] = {}
         self._warned: set = set()
 
     # -- raw data --------------------------------------------------------------------------
@@ -173,23 +174,30 @@ class _Reader:
         key = (index, srgb, alpha)
         if key not in self._textures:
             src = self.doc["textures"][index].get("source")
-            img = self.doc["images"][src] if src is not None else {}
-            what = f"{self.path.name}: texture {index}"
-            data = None
-            if "bufferView" in img:
-                data = self.view_bytes(img["bufferView"]).tobytes()
-            elif "uri" in img:
-                what = f"{self.path.name}: texture {index} ({img['uri'][:80]})"
-                target = None if img["uri"].startswith("data:") else safe_child(self.path, unquote(img["uri"]))
-                try:
-                    data = self._uri_bytes(img["uri"])
-                except UserError as e:
-                    if target is None:
-                        raise
-                    warnings.warn(f"{what}: {str(e).split(': ', 1)[-1]}; the material renders without it",
-                                  stacklevel=2)
+            uri = self.doc["images"][src].get("uri", "") if src is not None else ""
+            what = f"{self.path.name}: texture {index}" + (f" ({uri[:80]})" if uri else "")
+            data = self._image_bytes(src, what) if src is not None else None
             self._textures[key] = decode_image(data, what, srgb, alpha) if data else None
         return self._textures[key]
+
+    def _image_bytes(self, src: int, what: str) -> bytes | None:
+        """Image `src`'s bytes, read once however many textures use it; a file that cannot be
+        read is a warning (None), one outside the scene's folder an error."""
+        if src not in self._images:
+            img, data = self.doc["images"][src], None
+            if "bufferView" in img:
+                data = self.view_bytes(img["bufferView"]).tobytes()
+            elif "uri" in img and img["uri"].startswith("data:"):
+                data = self._uri_bytes(img["uri"])
+            elif "uri" in img:
+                target = safe_child(self.path, unquote(img["uri"]))
+                try:
+                    data = read_regular(target, self.path.name)
+                except UserError as e:
+                    warnings.warn(f"{what}: {str(e).split(': ', 1)[-1]}; the material renders without it",
+                                  stacklevel=3)
+            self._images[src] = data
+        return self._images[src]
 
     # -- scene -----------------------------------------------------------------------------
     def materials(self) -> tuple[list[Material], list[UvRule]]:
