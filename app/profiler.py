@@ -7,13 +7,13 @@ from contextlib import contextmanager
 
 
 class Profiler:
-    """deferred: GPU times are read a frame late (two timer queries per pass, alternating), so
-    reading them never waits for the GPU (the viewer); otherwise right away (shot, bench)."""
+    """deferred: GPU times are read a frame late (collect(), or the pass's next use), so reading
+    them never waits for the GPU (the viewer); otherwise right away (shot, bench)."""
 
     def __init__(self, history: int = 120, deferred: bool = False):
         self.history = history
         self.deferred = deferred
-        self._pending: dict = {}  # (context, pass) -> (query, started) issued last time, read next time
+        self._pending: dict = {}  # (context, pass) -> (query, pass) issued, not read yet (collect)
         self.samples: dict[str, deque] = defaultdict(lambda: deque(maxlen=self.history))
         self.kind: dict[str, str] = {}
         self.frame: dict[str, float] = {}
@@ -40,7 +40,7 @@ class Profiler:
     @contextmanager
     def gpu(self, ctx, name: str):
         """GPU time of the GL commands issued inside (a timer query). Not deferred: waits for the
-        result. Deferred: records the previous use's time, whose query is done by now."""
+        result. Deferred: read later, by collect() or at the pass's next use."""
         if self.deferred:
             with self._deferred(ctx, name):
                 yield
@@ -59,19 +59,30 @@ class Profiler:
     @contextmanager
     def _deferred(self, ctx, name: str):
         key = (id(ctx), name)
-        pair = self._queries.get(key)
-        if pair is None:
-            pair = self._queries[key] = [ctx.query(time=True), ctx.query(time=True), 0]
-        q = pair[pair[2]]
+        q = self._queries.get(key)
+        if q is None:
+            q = self._queries[key] = ctx.query(time=True)
+        if key in self._pending:  # the last use's result, read before its query is reused
+            self._read(key)
         with q:
             yield
-        previous = self._pending.get(key)
-        self._pending[key] = q
-        pair[2] ^= 1  # the other query next time
-        if previous is not None:
-            ns = previous.elapsed
-            if 0 <= ns < 2**32 - 1:  # a saturated 32-bit read is never shown
-                self.record(name, ns / 1e6, "gpu")
+        self._pending[key] = (q, name)
+
+    def collect(self) -> None:
+        """Deferred mode: read the GPU times still pending (the viewer calls this once per UI
+        frame, a frame after they were issued, when the GPU is done with them) into the samples
+        and the last finished frame's times."""
+        for key in list(self._pending):
+            self._read(key)
+
+    def _read(self, key) -> None:
+        q, name = self._pending.pop(key)
+        ns = q.elapsed
+        if 0 <= ns < 2**32 - 1:  # a saturated 32-bit read is never shown
+            ms = ns / 1e6
+            self.samples[name].append(ms)
+            self.kind[name] = "gpu"
+            self.finished[name] = ms
 
     def begin_frame(self) -> None:
         self.frame = {}

@@ -238,7 +238,7 @@ class Panel:
         if shown > 0:
             imgui.text(f"images shown: {shown:.1f} fps ({1000.0 / shown:.1f} ms)")
         else:
-            imgui.text("images shown: none new (the image on screen is up to date)" if v.main.shown else
+            imgui.text("images shown: none new (up to date)" if v.main.shown else
                        "images shown: none yet")
         imgui.text_disabled(f"UI loop: {ui:.0f} fps")
         if v.frame_times:
