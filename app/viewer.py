@@ -33,6 +33,7 @@ from app.split_view import Comparison, Track
 from app.ui_panel import Panel
 from app.warmup import BackgroundWarmup
 from core.errors import UserError
+from rt.backends import return_freed_memory
 from rt.embree.process import kernels_cached
 from scenes.builtin import DEFAULT_SCENE
 from scenes.loaders import load_scene
@@ -162,6 +163,7 @@ class Viewer:
         self.scene, self.scene_spec = scene, spec
         self.renderer.set_scene(scene)
         gc.collect()  # the old scene's arrays (hundreds of MB for large scenes) go now
+        return_freed_memory()  # and back to the OS, not kept for the frames' reuse
         if self.comparison is not None:
             self.comparison.set_scene(scene)
         self.fly = FlyCamera(Camera.from_view(scene.default_view(), scene.diagonal), scene.diagonal)

@@ -17,6 +17,14 @@ def init_process() -> None:
     process.init()
 
 
+def return_freed_memory() -> None:
+    """Give the memory the backends keep for reuse (rt/embree/memory.py) back to the OS: after a
+    scene switch, say, when the old scene's arrays were freed."""
+    from rt.embree.memory import return_freed_memory as trim
+
+    trim()
+
+
 def available() -> list[dict]:
     """Every backend with what it runs on here: name, device, whether it is available, and
     whether it is hardware (a GPU) or software (the CPU: Embree, lavapipe)."""

@@ -26,3 +26,17 @@ def keep_freed_memory() -> bool:
         return False
     return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(libc.mallopt(M_TRIM_THRESHOLD,
                                                                                       TRIM_THRESHOLD))
+
+
+def return_freed_memory() -> bool:
+    """Hand the memory that keep_freed_memory() keeps back to the OS now (glibc's malloc_trim):
+    for moments when a stall does not matter and much was freed, such as the viewer's scene
+    switch. True if it took."""
+    try:
+        libc = ctypes.CDLL(None)
+    except OSError:
+        return False
+    if not hasattr(libc, "malloc_trim"):
+        return False
+    libc.malloc_trim(0)
+    return True
