@@ -23,6 +23,9 @@ class GlobalOptions:
     gbuffer: str = opt("raster", "G-buffer source: raster (GPU) or rt (primary rays)", choices=("raster", "rt"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
     env: str = opt("scene", "radiance of rays that miss: scene, black, sky or R,G,B", check=_check_env)
+    brdf: str = opt("auto", "surface model: lambert (the study's: Lambert diffuse, mirror reflections), ggx "
+                    "(glTF's metal-rough: Lambert + GGX specular) or auto (glTF files ggx, others lambert)",
+                    choices=("auto", "lambert", "ggx"))
     tracer: str = opt("embree", "ray-tracing backend: embree (CPU), vulkan or cuda (Slang on a GPU, or Vulkan "
                       "on lavapipe without one), auto (a GPU with ray tracing if there is one, else embree)",
                       choices=CHOICES)

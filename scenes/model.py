@@ -165,8 +165,16 @@ class Scene:
     ambient: tuple = (0.0, 0.0, 0.0)
     tangents: np.ndarray | None = None  # (V,4) float32 xyz tangent, w handedness; where normal maps are used
     colors: np.ndarray | None = None  # (V,3) float32 linear vertex colours (glTF COLOR_0), times the base colour
+    # the surface model its materials were made for (option `brdf=auto`): "lambert", the study's
+    # (Lambert diffuse, mirror reflections below the roughness threshold), or "ggx", glTF's
+    # metal-rough BRDF (Lambert diffuse + GGX specular, docs/ARCHITECTURE.md "Materials")
+    brdf: str = "lambert"
 
     # -- derived data -----------------------------------------------------------------
+    def uses_ggx(self, brdf_option: str = "auto") -> bool:
+        """Whether surfaces shade with glTF's GGX BRDF under option `brdf` (auto: the scene's own)."""
+        return (self.brdf if brdf_option == "auto" else brdf_option) == "ggx"
+
     @property
     def triangle_count(self) -> int:
         return int(self.indices.shape[0])

@@ -97,6 +97,28 @@ vec3 mapped_normal(MaterialSample m, vec3 n, vec4 tangent) {
 #endif
 }
 
+// glTF's metal-rough BRDF (docs/ARCHITECTURE.md "Materials"; the same in rt/brdf.py and
+// shaders/rt/brdf.slang): Lambert diffuse c_diff (1 - F) / pi plus GGX specular F D V, with
+// alpha = roughness^2, Schlick's F and Smith's separable G folded into
+// V = G1(v) G1(l) / (4 n.l n.v) = 1 / ((n.v + L(n.v)) (n.l + L(n.l))), L(c) = sqrt(a2 + (1 - a2) c^2)
+const float GGX_MIN_ALPHA = 1e-3;
+
+float ggx_alpha(float roughness) { return max(roughness * roughness, GGX_MIN_ALPHA); }
+
+vec3 schlick(vec3 f0, float c) { float k = 1.0 - clamp(c, 0.0, 1.0); return f0 + (1.0 - f0) * (k * k * k * k * k); }
+
+// f(v, l) for unit n, v, l with n.l > 0; c_diff = base (1 - metallic), f0 = mix(0.04, base, metallic)
+vec3 ggx_brdf(vec3 c_diff, vec3 f0, float alpha, vec3 n, vec3 v, vec3 l) {
+    vec3 h = normalize(v + l);
+    float nv = max(dot(n, v), 1e-4), nl = max(dot(n, l), 1e-4), nh = max(dot(n, h), 0.0);
+    float a2 = alpha * alpha;
+    float k = nh * nh * (a2 - 1.0) + 1.0;
+    float d = a2 / (PI * k * k);
+    float vis = 1.0 / ((nv + sqrt(a2 + (1.0 - a2) * nv * nv)) * (nl + sqrt(a2 + (1.0 - a2) * nl * nl)));
+    vec3 f = schlick(f0, dot(v, h));
+    return c_diff * (1.0 - f) / PI + f * (d * vis);
+}
+
 const vec3 SKY_HORIZON = vec3(0.9, 0.95, 1.0);
 const vec3 SKY_ZENITH = vec3(0.25, 0.45, 0.9);
 const vec3 SKY_GROUND = vec3(0.25, 0.23, 0.2);

@@ -36,6 +36,7 @@ uniform samplerCube env_cube;
 uniform int use_env_reflections;
 uniform float roughness_threshold;
 uniform int use_shadows;
+uniform int use_ggx;               // glTF's metal-rough BRDF (option brdf), else the study's Lambert
 uniform sampler2DShadow sun_shadow;
 uniform mat4 sun_view_proj;
 uniform int sun_slot;              // index of the light that owns the sun map, -1 none
@@ -45,6 +46,7 @@ uniform int point_shadow_rows;
 uniform int pcf_radius;
 // hybrid: ray-traced pieces computed on the CPU for the same pixels (0 = use raster)
 uniform int use_rt_direct;       // rt_direct: irradiance x cos from all lights, RT visibility
+                                 // (with use_ggx: the direct radiance, the BRDF applied)
 uniform int use_rt_ao;           // rt_ao: AO instead of SSAO
 uniform int use_rt_reflection;   // rt_reflection: reflected radiance, alpha 1 where traced
 uniform int use_rt_indirect;     // rt_indirect: mean incoming indirect radiance
@@ -111,6 +113,9 @@ void main() {
     vec3 n = mapped_normal(m, normalize(v_normal), v_tangent);
     if (dot(n, ng) < 0.0) n = -n;
     vec3 brdf = m.albedo / PI;
+    vec3 f0 = mix(vec3(0.04), m.albedo, m.metallic);
+    vec3 c_diff = m.albedo * (1.0 - m.metallic);
+    float alpha = ggx_alpha(m.roughness);
     vec3 direct = vec3(0.0);
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     for (int i = 0; i < (use_rt_direct == 1 ? 0 : light_count); ++i) {
@@ -143,18 +148,33 @@ void main() {
             if (kind == 2 && i == sun_slot) vis = sun_visibility(v_position, ng, l);
             else if (slot >= 0) vis = point_visibility(slot, L.position_kind.xyz, v_position, ng, L.cone.z, L.cone.w);
         }
-        direct += brdf * e * cos_theta * vis;
+        direct += (use_ggx == 1 ? ggx_brdf(c_diff, f0, alpha, n, v, l) : brdf) * e * cos_theta * vis;
     }
-    if (use_rt_direct == 1) direct = brdf * texelFetch(rt_direct, pixel, 0).rgb;
+    if (use_rt_direct == 1) direct = (use_ggx == 1 ? vec3(1.0) : brdf) * texelFetch(rt_direct, pixel, 0).rgb;
     vec3 amb = texture(ambient_lut, vec2(n.y * 0.5 + 0.5, 0.5)).rgb + ambient_radiance;
     float occlusion = use_ssao == 1 ? texture(ssao, gl_FragCoord.xy / viewport).r : 1.0;
     if (use_rt_ao == 1) occlusion = texelFetch(rt_ao, pixel, 0).r;
-    vec3 ambient = m.albedo * amb * ambient_scale * occlusion * m.occlusion;  // glTF occlusion: ambient only
-    if (use_rt_indirect == 1) ambient = m.albedo * texelFetch(rt_indirect, pixel, 0).rgb;
-    vec3 color = direct + ambient;
+    vec3 incoming = amb * ambient_scale * occlusion * m.occlusion;  // glTF occlusion: ambient only
+    if (use_rt_indirect == 1) incoming = texelFetch(rt_indirect, pixel, 0).rgb;
+    vec3 fresnel = schlick(f0, dot(n, v));
+    if (use_ggx == 1) {
+        // diffuse ambient, and the specular lobe's: a surface smoother than the threshold
+        // reflects the environment (or the traced reflection), a rougher one the ambient, with
+        // Fresnel's roughness-damped average at this angle
+        vec3 f_avg = f0 + (max(vec3(1.0 - m.roughness), f0) - f0) * pow(1.0 - max(dot(n, v), 0.0), 5.0);
+        vec3 color = direct + c_diff * (1.0 - f_avg) * incoming;
+        vec4 rt = use_rt_reflection == 1 ? texelFetch(rt_reflection, pixel, 0) : vec4(0.0);
+        if (rt.a > 0.0)
+            color += fresnel * rt.rgb;
+        else if (use_env_reflections == 1 && m.roughness < roughness_threshold)
+            color += fresnel * texture(env_cube, reflect(-v, n)).rgb;
+        else
+            color += f_avg * incoming;
+        radiance = vec4(m.emissive + color, 1.0);
+        return;
+    }
+    vec3 color = direct + m.albedo * incoming;
     // Schlick's Fresnel blends the reflection with the (non-emitted) local colour
-    vec3 f0 = mix(vec3(0.04), m.albedo, m.metallic);
-    vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - max(dot(n, v), 0.0), 5.0);
     if (use_rt_reflection == 1) {
         vec4 rt = texelFetch(rt_reflection, pixel, 0);
         if (rt.a > 0.0) color = (1.0 - fresnel) * color + fresnel * rt.rgb;

@@ -149,3 +149,82 @@ def textured_scene(materials: list, textures: list, quads: list, lights: list, c
         doc["nodes"].append({"camera": 0, "translation": list(camera[0]), "rotation": list(camera[1])})
         doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
     return doc
+
+
+def uv_sphere(centre, radius, segments=48, rings=24):
+    """A UV sphere: (positions, normals, uvs, triangle indices), counter-clockwise outside."""
+    th = np.linspace(0, np.pi, rings + 1)
+    ph = np.linspace(0, 2 * np.pi, segments + 1)
+    t, p = np.meshgrid(th, ph, indexing="ij")
+    nrm = np.stack([np.sin(t) * np.cos(p), np.cos(t), -np.sin(t) * np.sin(p)], -1).reshape(-1, 3)
+    pos = np.asarray(centre, np.float64) + radius * nrm
+    uv = np.stack([p / (2 * np.pi), t / np.pi], -1).reshape(-1, 2)
+    idx = []
+    w = segments + 1
+    for r in range(rings):
+        for s in range(segments):
+            a, b = r * w + s, (r + 1) * w + s
+            idx += [[a, b, a + 1], [a + 1, b, b + 1]]
+    return pos.astype(np.float32), nrm.astype(np.float32), uv.astype(np.float32), np.array(idx, np.uint32)
+
+
+def mesh_scene(meshes: list, materials: list, lights: list, camera=None):
+    """A glTF document of triangle meshes: (positions, normals, uvs, indices, material index)
+    each; lights and camera as textured_scene. Returns the document (buffers as data URIs)."""
+    blob, views, accessors, gl_meshes = b"", [], [], []
+    for pos, nrm, uv, idx, mat in meshes:
+        first = len(accessors)
+        for arr, kind in ((pos, "VEC3"), (nrm, "VEC3"), (uv, "VEC2"), (idx.reshape(-1), "SCALAR")):
+            views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": arr.nbytes})
+            acc = {"bufferView": len(views) - 1, "componentType": 5125 if arr.dtype == np.uint32 else 5126,
+                   "count": int(arr.shape[0]), "type": kind}
+            if arr is pos:
+                acc["min"], acc["max"] = arr.min(0).tolist(), arr.max(0).tolist()
+            accessors.append(acc)
+            blob += arr.tobytes()
+        gl_meshes.append({"primitives": [{"attributes": {"POSITION": first, "NORMAL": first + 1,
+                                                         "TEXCOORD_0": first + 2},
+                                          "indices": first + 3, "material": mat}]})
+    nodes = [{"mesh": k} for k in range(len(meshes))]
+    lights = [dict(light) for light in lights]
+    for k, light in enumerate(lights):
+        nodes.append({**light.pop("node"), "extensions": {"KHR_lights_punctual": {"light": k}}})
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": list(range(len(nodes)))}], "nodes": nodes,
+           "meshes": gl_meshes, "materials": materials, "accessors": accessors, "bufferViews": views,
+           "buffers": [{"byteLength": len(blob),
+                        "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
+           "extensionsUsed": ["KHR_lights_punctual"], "extensions": {"KHR_lights_punctual": {"lights": lights}}}
+    if camera is not None:
+        doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": camera[2], "znear": 0.01}}]
+        doc["nodes"].append({"camera": 0, "translation": list(camera[0]), "rotation": list(camera[1])})
+        doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+    return doc
+
+
+def ggx_spheres_document():
+    """Three white metal spheres (F = 1 at every angle: Schlick's F0 = 1), roughness 0.25, 0.5
+    and 0.8, under one point light, the camera looking at them: the scene of the Mitsuba
+    references (tests/refs/make_mitsuba_refs.py)."""
+    roughness = (0.25, 0.5, 0.8)
+    materials = [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 1.0,
+                                           "roughnessFactor": r}} for r in roughness]
+    meshes = [(*uv_sphere((x, 0.0, 0.0), 0.5, 64, 32), k) for k, x in enumerate((-1.15, 0.0, 1.15))]
+    lights = [{"type": "point", "intensity": 20.0, "color": [1, 1, 1], "node": {"translation": [1.0, 2.0, 2.5]}}]
+    return mesh_scene(meshes, materials, lights, ((0.0, 0.0, 4.0), (0.0, 0.0, 0.0, 1.0), 0.7))
+
+
+def ggx_quads_document():
+    """Three floor quads side by side, a red dielectric (roughness 0.3), a gold metal (0.4) and a
+    grey half-metal (0.7), under one point light, seen from above at an angle: every pixel's
+    direct light has a closed form (tests/test_brdf.py)."""
+    materials = [{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.1, 0.1, 1], "metallicFactor": 0.0,
+                                           "roughnessFactor": 0.3}},
+                 {"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.78, 0.34, 1], "metallicFactor": 1.0,
+                                           "roughnessFactor": 0.4}},
+                 {"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1], "metallicFactor": 0.5,
+                                           "roughnessFactor": 0.7}}]
+    quads = [((-2.1, 0, 0), 2.0, 0, "up"), ((0, 0, 0), 2.0, 1, "up"), ((2.1, 0, 0), 2.0, 2, "up")]
+    lights = [{"type": "point", "intensity": 40.0, "color": [1, 1, 1], "node": {"translation": [0.3, 1.5, -1.2]}}]
+    half = -np.arctan2(2.5, 3.5) / 2  # looking down at the quads
+    return textured_scene(materials, [], quads, lights, ((0, 2.5, 3.5), (float(np.sin(half)), 0, 0,
+                                                                          float(np.cos(half))), 0.9))

@@ -265,9 +265,9 @@ def test_one_light_pick_of_a_lone_sun_is_that_suns_own_rays(gl):
 @pytest.mark.parametrize("name", ["cafe", "temple", "street"])
 def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     """Given a scene handle, generators trace their rays as they make them and add what gets
-    through: the same sums (to the bit) and ray counts as packing, tracing and adding after,
-    for every kind of light, the one-light choice and AO rays."""
-    from rt.embree import raygen, rtcore, scratch
+    through: the same sums (to the bit; GGX's to float rounding) and ray counts as packing,
+    tracing and adding after, for every kind of light, the one-light choice and AO rays."""
+    from rt.embree import brdf, raygen, rtcore, scratch
     from rt.embree.gbuffer import from_raster
     from rt.embree.sampling import PixelRng
 
@@ -281,11 +281,19 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     G = (gb.soa, 0)
     o, d, t, idx, e = scratch.rays("t.a", n, True)
 
-    def after(m, light):
-        out = np.zeros((n, 3), np.float32)
+    def fresh(cols):  # a plain accumulator, or a GGX one (rt/embree/brdf.py) with views and alphas
+        out = np.zeros((n, cols), np.float32)
+        if cols > 3:
+            out[:, brdf.VIEW:brdf.VIEW + 3] = np.cos(np.arange(n)[:, None] + [0.0, 2.1, 4.2]) * 0.577
+            out[:, brdf.VIEW + 1] = np.abs(out[:, brdf.VIEW + 1])
+            out[:, brdf.ALPHA] = 0.05 + 0.9 * (np.arange(n) % 7) / 7
+        return out
+
+    def after(m, light, cols=3):
+        out = fresh(cols)
         blocked = view.occluded(o[:m], d[:m], t[:m])
         if light:
-            raygen.add_unblocked(out, idx, e, blocked, m)
+            raygen.add_unblocked(out, idx, d, e, blocked, m, *G)
         else:
             np.add.at(out[:, 0], idx[:m][~blocked], 1.0)
         return out
@@ -302,6 +310,12 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
         assert make(view.handle, inline) == m > 0
         assert np.array_equal(inline, expected)
         assert 0 < np.count_nonzero(expected[:, 0]) < n or not light  # some light gets through, not all
+        if light:  # GGX's sums too (the same to float rounding: the terms compile in two places)
+            m = make(0, raygen.NOT_TRACED)
+            expected, inline = after(m, light, brdf.GGX_COLS), fresh(brdf.GGX_COLS)
+            make(view.handle, inline)
+            assert np.array_equal(inline[:, :3], expected[:, :3]) and np.count_nonzero(expected[:, brdf.SUM_EDV]) > 0
+            np.testing.assert_allclose(inline, expected, rtol=1e-3, atol=1e-9)  # sharp lobes: alpha 0.05
     r.release()
 
 

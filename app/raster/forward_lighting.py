@@ -100,6 +100,7 @@ class ForwardLightingPass(Pass):
             set_uniform(prog, "use_env_reflections", int(opts.env_reflections))
             set_uniform(prog, "roughness_threshold", float(opts.roughness_threshold))
             set_uniform(prog, "use_shadows", int(opts.shadow_maps))
+            set_uniform(prog, "use_ggx", int(frame.scene.uses_ggx(frame.options.get("brdf"))))
             set_uniform(prog, "sun_view_proj", shadow_info["sun_view_proj"].T.astype(np.float32))
             set_uniform(prog, "sun_slot", int(shadow_info["sun_slot"]))
             set_uniform(prog, "sun_texel", float(shadow_info["sun_texel"]))

@@ -34,6 +34,11 @@ class RtFrame:
     # (Renderer.pass_outputs); without them a pass writes one full image a frame, not two.
     aux: bool = True
 
+    @property
+    def ggx(self) -> bool:
+        """Whether surfaces shade with glTF's GGX BRDF (option brdf, rt/embree/brdf.py)."""
+        return self.data.scene.uses_ggx(self.options.get("brdf"))
+
     def rng(self, stream: int) -> PixelRng:
         """Per-pixel generator for the covered pixels, seeded from (seed, frame, pixel, stream)."""
         return PixelRng(self.seed, self.index, self.gb.index, stream)

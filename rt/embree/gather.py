@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
 from rt.embree.kernels import environment_rgb, environment_terms
 from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
 
@@ -39,16 +40,18 @@ def gather_keys(keys, owner, sel, k, out):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def add_bounce(out, owner, sel, k, albedo, direct, inner):
-    """out[owner[sel[i]]] += albedo[i] x (direct[i] / pi + inner[i]): light leaving bounce hits
-    (inner: what arrives there from further bounces, or None)."""
+def add_bounce(out, owner, sel, k, albedo, metallic, direct, inner):
+    """out[owner[sel[i]]] += the light leaving bounce hit i: its direct light's radiance
+    (brdf.light_out; direct: its accumulator) + inner[i] x the albedo (GGX: brdf.diffuse_weight),
+    inner: what arrives there from further bounces, or None."""
+    ggx = direct.shape[1] >= GGX_COLS
     for i in range(k):
         p = owner[sel[i]]
         for a in range(3):
-            light = direct[i, a] * INV_PI
+            light = light_out(direct, i, a, albedo[i, a], metallic[i])
             if inner is not None:
-                light += inner[i, a]
-            out[p, a] += albedo[i, a] * light
+                light += inner[i, a] * (diffuse_weight(albedo[i, a], metallic[i]) if ggx else albedo[i, a])
+            out[p, a] += light
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -94,16 +97,32 @@ def put_rows(image, pix, values):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def write_lit(out, pix, emissive, albedo, direct, extra, grey):
-    """out[pix[j]] = emissive + albedo x (direct / pi + extra); grey: albedo 1, no emission;
-    extra may be None (0)."""
+def write_lit(out, pix, emissive, albedo, metallic, direct, extra, grey):
+    """out[pix[j]] = emissive + the direct light's radiance (brdf.light_out; direct: the light
+    accumulator) + extra x the albedo (GGX: brdf.diffuse_weight), extra: incoming indirect
+    radiance, or None; grey: a white dielectric, no emission."""
+    ggx = direct.shape[1] >= GGX_COLS
     for j in range(pix.shape[0]):
         p = pix[j]
+        m = ZERO if grey else metallic[j]
         for a in range(3):
-            light = direct[j, a] * INV_PI
+            base = ONE if grey else albedo[j, a]
+            light = light_out(direct, j, a, base, m)
             if extra is not None:
-                light += extra[j, a]
-            out[p, a] = light if grey else emissive[j, a] + albedo[j, a] * light
+                light += extra[j, a] * (diffuse_weight(base, m) if ggx else base)
+            out[p, a] = light if grey else emissive[j, a] + light
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def direct_radiance(direct, albedo, metallic):
+    """The radiance (n, 3) that a GGX light accumulator gives (brdf.outgoing): what hybrid's
+    rt_direct holds with GGX (with Lambert, the accumulator itself: irradiance x cos)."""
+    n = direct.shape[0]
+    out = np.empty((n, 3), np.float32)
+    for j in range(n):
+        for a in range(3):
+            out[j, a] = light_out(direct, j, a, albedo[j, a], metallic[j])
+    return out
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
@@ -150,24 +169,29 @@ def mirror_rays(P, N, NG, V, sel, eps, origin, direction):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def add_hit_colour(out, sel, k, emissive, albedo, direct, lit):
-    """out[sel[i]] += emission + (albedo x direct / pi, or the albedo unlit) at hit i."""
+def add_hit_colour(out, sel, k, emissive, albedo, metallic, direct, lit):
+    """out[sel[i]] += emission + (the direct light's radiance, brdf.light_out, or the albedo
+    unlit) at hit i."""
     for i in range(k):
         p = sel[i]
         for a in range(3):
-            out[p, a] += emissive[i, a] + (albedo[i, a] * direct[i, a] * INV_PI if lit else albedo[i, a])
+            out[p, a] += emissive[i, a] + (light_out(direct, i, a, albedo[i, a], metallic[i]) if lit else albedo[i, a])
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflection):
+def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflection, ggx):
     """At the points sel[k]: colour = emission + (1 - F) (colour - emission) + F x inner, with
-    Schlick's F for view directions V; reflection[sel[k]] = (inner, 1) when given."""
+    Schlick's F for view directions V (ggx: colour += F x inner, the colour's light having its
+    own Fresnel split, rt/embree/brdf.py); reflection[sel[k]] = (inner, 1) when given."""
     for k in range(sel.shape[0]):
         i = sel[k]
         for a in range(3):
             f = _fresnel(albedo[i, a], metallic[i], N[i, 0], N[i, 1], N[i, 2], V[k, 0], V[k, 1], V[k, 2], a)
             e = emissive[i, a]
-            colour[i, a] = e + (np.float32(1.0) - f) * (colour[i, a] - e) + f * inner[k, a]
+            if ggx:
+                colour[i, a] += f * inner[k, a]
+            else:
+                colour[i, a] = e + (np.float32(1.0) - f) * (colour[i, a] - e) + f * inner[k, a]
         if reflection is not None:
             reflection[i, 0], reflection[i, 1], reflection[i, 2], reflection[i, 3] = (
                 inner[k, 0], inner[k, 1], inner[k, 2], np.float32(1.0))

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from rt.embree import gather, raygen
+from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.kernels import shade_hits
 
@@ -19,12 +19,13 @@ _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def gi_frame(workers, scene, frame, base, rays, bounces, shadowed):
+def gi_frame(workers, scene, frame, base, rays, bounces, shadowed, ggx):
     """The whole GI pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs; base:
     RtFrame.key_base). Blocks of points split among workers, each block: direct light from one
     chosen light (shadowed, or unshadowed: the study's cheap mode), then `rays` paths of up to
     `bounces` bounces (_paths); then the block's pixels, its incoming indirect light into
-    frame.aux, and the uncovered pixels around them. Returns the rays traced."""
+    frame.aux, and the uncovered pixels around them; ggx: glTF's BRDF (brdf.py). Returns the rays
+    traced."""
     pix = frame.pix
     n = pix.shape[0]
     bounds = raygen.block_bounds(n, workers)
@@ -38,27 +39,29 @@ def gi_frame(workers, scene, frame, base, rays, bounces, shadowed):
                 break
             nb = b1 - b0
             keys = raygen.block_keys(pix, b0, b1, base)
-            direct = np.empty((nb, 3), np.float32)  # dimensions 0-3: the light picked and its sample
+            # dimensions 0-3: the light picked and its sample
+            direct = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
             traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.eps, scene.far,
                                              lit, direct)
             indirect = np.zeros((nb, 3), np.float32)
             for r in range(rays):
-                traced[w] += _paths(scene, frame, lit, b0, keys, r, bounces, indirect)
+                traced[w] += _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect)
             indirect /= np.float32(rays)
-            gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1], direct, indirect,
-                             False)
+            gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1],
+                             frame.metallic[b0:b1], direct, indirect, False)
             gather.put_rows(frame.aux, pix[b0:b1], indirect)
             gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
     return traced.sum()
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _paths(scene, frame, lit, b0, keys, r, bounces, indirect):
+def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
     """Path r of every point of the block starting at b0 (keys: theirs): per bounce a
     cosine-weighted ray, its closest hit (the environment where it misses), the hit shaded and
     lit by its own light sample (lit: the shadow rays' target), and from the hit the next
-    bounce's ray; each bounce's light, times the albedos of the path's earlier hits, is added
-    into indirect (one row per point). Random dimensions: 6 per bounce from 4 + 6 x (bounces x r).
+    bounce's ray; each bounce's light, times the albedos of the path's earlier hits (ggx:
+    brdf.diffuse_weight), is added into indirect (one row per point). Random dimensions: 6 per
+    bounce from 4 + 6 x (bounces x r).
     Returns the rays traced."""
     nb = keys.shape[0]
     env_kind, env_color, horizon, zenith, ground = frame.env
@@ -99,10 +102,10 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, indirect):
         gather.gather_keys(keys_a, owner, hits, k, keys_b)
         hit_points = np.empty((9, k), np.float32)
         raygen.surface_soa(P[:k], N[:k], NG[:k], hit_points)
-        hit_direct = np.empty((k, 3), np.float32)
+        hit_direct = brdf.accumulator(ggx, d, hits, rough[:k])
         traced += m + raygen.direct_block(hit_points, 0, keys_b[:k], scene.lights, True, dim + 2, scene.eps,
                                           scene.far, lit, hit_direct)
-        gather.add_bounce(into, owner, hits, k, alb[:k], hit_direct, None)
+        gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct, None)
         if bounces == 1:
             break
         # ---- this bounce's light into its paths' rows; the hits start the next bounce ----
@@ -113,7 +116,7 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, indirect):
             q = owner[hits[i]]
             row_b[i] = row_a[q]
             for a in range(3):
-                thr_b[i, a] = thr_a[q, a] * alb[i, a]
+                thr_b[i, a] = thr_a[q, a] * (brdf.diffuse_weight(alb[i, a], metal[i]) if ggx else alb[i, a])
         G, g0, npts = hit_points, 0, k
         keys_a, keys_b = keys_b, keys_a
         row_a, row_b = row_b, row_a
@@ -127,5 +130,5 @@ def trace(rf) -> dict:
     out, indirect_image = rf.frame_outputs(name="rt_indirect")
     rf.tracer.rays_traced += rf.tracer.run_parallel(
         gi_frame, rf.data.kernel_scene, rf.kernel_frame(out, indirect_image), rf.key_base(4),
-        rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"), rf.options.get("gi.shadows"))
+        rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"), rf.options.get("gi.shadows"), rf.ggx)
     return rf.outputs(out, rt_indirect=indirect_image)

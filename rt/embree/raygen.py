@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from rt.embree import rtcore as embree
+from rt.embree.brdf import SUM_EDVW, add_light
 from rt.embree.kernels import pixel_key, take_next, uniform
 from rt.layout import (
     CONE_COS,
@@ -167,9 +168,8 @@ def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, ligh
                                  pz + G[GZ, g0 + i] * s, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t):
             continue
         if light:
-            acc[i, 0] += ex
-            acc[i, 1] += ey
-            acc[i, 2] += ez
+            add_light(acc, i, ex, ey, ez, G[NX, g0 + i], G[NY, g0 + i], G[NZ, g0 + i], blk[DIR, j], blk[DIR + 1, j],
+                      blk[DIR + 2, j])
         else:
             acc[i, 0] += ONE
     return m
@@ -585,14 +585,14 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def add_unblocked(total, idx, e, blocked, m):
-    """total[idx[j]] += e[j] for the first m packed rays that were not blocked."""
+def add_unblocked(total, idx, d, e, blocked, m, G, g0):
+    """total[idx[j]] += e[j] arriving along d[j] (brdf.add_light; G, g0: the points' rows) for
+    the first m packed rays that were not blocked."""
     for j in range(m):
         if not blocked[j]:
             i = idx[j]
-            total[i, 0] += e[j, 0]
-            total[i, 1] += e[j, 1]
-            total[i, 2] += e[j, 2]
+            add_light(total, i, e[j, 0], e[j, 1], e[j, 2], G[NX, g0 + i], G[NY, g0 + i], G[NZ, g0 + i], d[j, 0],
+                      d[j, 1], d[j, 2])
 
 
 @njit(cache=True, error_model="numpy")
@@ -666,7 +666,7 @@ def direct_block(G, b0, keys, lights, one, dim0, eps, far, tr, total):
     tr without a scene (rtcore.no_trace): unshadowed (the study's cheap GI), every ray's light
     added, none traced."""
     n_lights = lights[3]
-    total[:] = ZERO
+    total[:, :min(total.shape[1], SUM_EDVW + 3)] = ZERO  # a GGX accumulator's view and alpha stay
     if n_lights == 0:
         return 0
     o, d, t, e, idx = no_rays()
@@ -676,7 +676,7 @@ def direct_block(G, b0, keys, lights, one, dim0, eps, far, tr, total):
                            np.empty((n, 3), np.float32), np.empty(n, np.int32))
         for k in range(1 if one else n_lights):
             m = _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total)
-            add_unblocked(total, idx, e, np.zeros(m, np.bool_), m)
+            add_unblocked(total, idx, d, e, np.zeros(m, np.bool_), m, G, b0)
         return 0
     traced = 0
     for k in range(1 if one else n_lights):

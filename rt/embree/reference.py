@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rt.embree import brdf
 from rt.embree.shading import INV_PI, LUMA, cosine_directions, direct_one, fresnel_schlick, mirror, trace_from
 
 
@@ -54,8 +55,88 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
     return radiance
 
 
+def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
+    """trace_paths for glTF's BRDF (rt/embree/brdf.py). At each vertex: next-event estimation
+    with the whole BRDF (both lobes; the diffuse lobe alone where the surface is smoother than
+    brdf.MIRROR_ROUGHNESS, whose near-mirror lobe the bounce alone estimates, emission seen
+    after it counting), then the next direction from one lobe, picked with probability ~ its
+    estimated weight: GGX's visible normals (weight F G1(l)) or cosine-weighted (weight
+    c_diff (1 - F)). Random dimensions as trace_paths: lobe, light (4), direction (2), roulette."""
+    n = len(s)
+    radiance = s.emissive.copy()
+    beta = np.ones((n, 3), np.float32)
+    alive = np.arange(n)
+    d_in = view
+    for bounce in range(max_bounces + 1):
+        n, v = len(s), -d_in
+        a = np.maximum(s.roughness * s.roughness, float(brdf.MIN_ALPHA))
+        metal = s.metallic[:, None]
+        f0 = 0.04 * (1 - metal) + s.albedo * metal
+        c_diff = s.albedo * (1 - metal)
+        f_nv = brdf.schlick(f0, np.einsum("ij,ij->i", s.n, v))
+        w_spec, w_diff = f_nv @ LUMA, (c_diff * (1 - f_nv)) @ LUMA
+        p_spec = np.where(w_spec + w_diff > 0, w_spec / np.maximum(w_spec + w_diff, 1e-12), 1.0)
+        spec = rng.next(1)[:, 0] < p_spec
+        near_mirror = s.roughness < brdf.MIRROR_ROUGHNESS
+        # ---- next-event estimation: the light's sums (brdf.py), then the BRDF's lobes ----
+        acc = np.zeros((n, brdf.GGX_COLS), np.float32)
+        acc[:, brdf.VIEW:brdf.VIEW + 3] = v
+        acc[:, brdf.ALPHA] = a
+        direct_one(cf.data, cf.tracer, s, rng, out=acc)
+        e, ew = acc[:, 0:3], acc[:, 3:6]
+        edv, edvw = acc[:, 6:9], acc[:, 9:12]
+        light = c_diff * INV_PI * (1 - f0) * (e - ew)
+        light += np.where(near_mirror[:, None], 0, f0 * edv + (1 - f0) * edvw)
+        radiance[alive] += beta * light
+        if bounce == max_bounces:
+            break
+        # ---- the next direction from the lobe picked, the throughput, the roulette ----
+        u = rng.next(2)
+        cosine = cosine_directions_u(s.n, u)
+        m = brdf.sample_visible_normal(s.n, v, a, u)
+        vm = np.einsum("ij,ij->i", v, m)
+        mirrored = (2 * vm[:, None] * m - v).astype(np.float32)
+        d = np.where(spec[:, None], mirrored, cosine).astype(np.float32)
+        h = brdf._unit(v + d)
+        f_vh = brdf.schlick(f0, np.einsum("ij,ij->i", v, h))
+        g1_l = brdf.smith_g1(np.einsum("ij,ij->i", s.n, d), a)
+        weight_spec = brdf.schlick(f0, vm) * g1_l[:, None] / np.maximum(p_spec, 1e-6)[:, None]
+        weight_diff = c_diff * (1 - f_vh) / np.maximum(1 - p_spec, 1e-6)[:, None]
+        beta = (beta * np.where(spec[:, None], weight_spec, weight_diff)).astype(np.float32)
+        keep = (np.einsum("ij,ij->i", d, s.ng) > 0) & (np.einsum("ij,ij->i", d, s.n) > 0)
+        counts = spec & near_mirror  # emission at the next hit: the near-mirror lobe's, not NEE's
+        if bounce + 1 >= rr_start:
+            q = np.clip(beta @ LUMA, 0.05, 0.95)
+            keep &= rng.next(1)[:, 0] < q
+            beta = beta / q[:, None]
+        idx = np.nonzero(keep)[0]
+        hit, sh, miss = trace_from(cf.data, cf.tracer, s.take(idx), d[idx])
+        mi = idx[miss]
+        radiance[alive[mi]] += beta[mi] * cf.environment.radiance(d[mi])
+        hi = idx[hit]
+        seen = counts[hi]
+        radiance[alive[hi[seen]]] += beta[hi[seen]] * sh.emissive[seen]
+        alive, beta, d_in, s = alive[hi], beta[hi], d[hi], sh
+        rng = rng.subset(hi)
+    return radiance
+
+
+def cosine_directions_u(n: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Cosine-weighted directions about unit normals n from uniforms u (N, 2), in the frame of
+    raygen.about (as raygen.cosine_dirs draws them)."""
+    r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
+    x, y, z = r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0, 1 - u[:, 0]))
+    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
+    k = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * k
+    t = np.stack([1 + sign * n[:, 0] ** 2 * k, sign * b, -sign * n[:, 0]], 1)
+    bt = np.stack([b, sign + n[:, 1] ** 2 * k, -n[:, 1]], 1)
+    return (t * x[:, None] + bt * y[:, None] + n * z[:, None]).astype(np.float32)
+
+
 def trace(rf) -> dict:
     out = rf.background()
     bounces, rr = rf.options.get("reference.max_bounces"), rf.options.get("reference.rr_start")
-    rf.for_chunks(lambda cf: cf.put(out, trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr)), streams=(5,))
+    paths = trace_paths_ggx if rf.ggx else trace_paths
+    rf.for_chunks(lambda cf: cf.put(out, paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr)), streams=(5,))
     return {"radiance": out}

@@ -6,19 +6,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from rt.embree import gather, raygen
+from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.kernels import shade_hits
-from rt.embree.shading import INV_PI
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, refl):
+def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, refl):
     """One mirror bounce: from the points sel[k] of (P, N, NG) seen along V[k] (keys[k]: their
     generators), ray k's closest hit shaded (lit: with its own light sample, dimensions
-    dim0..dim0+3) and its colour; refl[k] gains the environment where ray k missed. Returns
+    dim0..dim0+3; ggx: glTF's BRDF, brdf.py) and its colour; refl[k] gains the environment where ray k missed. Returns
     the rays that hit (hits), every ray's direction (d), the hits' shading (P, N, NG, albedo,
     roughness, metallic, emission), colour and keys, and the rays traced."""
     (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
@@ -41,7 +40,7 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, refl):
                 tex_offset, tex_w, tex_h, wrap, tex_data, colors, HP, HN, HNG, halb, hrough, hmetal, hemis)
     hkeys = np.empty(k, np.uint64)
     gather.gather_keys(keys, owner, hits, k, hkeys)
-    hdirect = np.zeros((k, 3), np.float32)
+    hdirect = brdf.accumulator(ggx and lit, d, hits, hrough)
     traced = m
     if lit:
         hg = np.empty((9, k), np.float32)
@@ -49,12 +48,12 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, refl):
         traced += raygen.direct_block(hg, 0, hkeys, scene.lights, True, dim0, scene.eps, scene.far, frame.target,
                                       hdirect)
     colour = np.zeros((k, 3), np.float32)
-    gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hdirect, lit)
+    gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)
     return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _deeper(scene, frame, depth, thr, lit, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys, colour):
+def _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys, colour):
     """Mirrors 2..depth below the first mirror's hits (their shading, keys and colour; d: the
     first mirror rays' directions): each level's smooth hits reflect again (_mirror_hits, light
     dimensions 4 x level), then, deepest first, each level's colour takes Fresnel's blend with
@@ -83,7 +82,7 @@ def _deeper(scene, frame, depth, thr, lit, HP, HN, HNG, halb, hrough, hmetal, he
         for j in range(m):
             skeys[j] = pkeys[sel[lv, j]]
         h, dd, P2, N2, NG2, alb2, rough2, metal2, emis2, col2, keys2, t = _mirror_hits(
-            scene, frame, pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, refl[lv])
+            scene, frame, pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ggx, refl[lv])
         traced += t
         k = h.shape[0]
         hit_count[lv] = k
@@ -98,22 +97,23 @@ def _deeper(scene, frame, depth, thr, lit, HP, HN, HNG, halb, hrough, hmetal, he
         if lv + 1 < levels:
             c = count[lv + 1]
             gather.blend_mirror(col[lv], sel[lv + 1, :c], emis[lv], alb[lv], metal[lv], nrm[lv], V[lv + 1, :c],
-                                refl[lv + 1], None)
+                                refl[lv + 1], None, ggx and lit)
         for i in range(hit_count[lv]):
             for a in range(3):
                 refl[lv, hit_l[lv, i], a] = col[lv, i, a]
     c = count[0]
-    gather.blend_mirror(colour, sel[0, :c], hemis, halb, hmetal, HN, V[0, :c], refl[0], None)
+    gather.blend_mirror(colour, sel[0, :c], hemis, halb, hmetal, HN, V[0, :c], refl[0], None, ggx and lit)
     return traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, scene, frame, base, thr, lit, depth):
+def reflections_frame(workers, scene, frame, base, thr, lit, depth, ggx):
     """The whole reflections pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs;
     base: RtFrame.key_base). Blocks of points split among workers, each block: the local colour
     (lit: one chosen light, shadowed; else the albedo, as the study), a mirror ray from each
     point smoother than thr, its closest hit shaded (lit: with its own light sample), up to
-    `depth` mirrors deep (_deeper), Fresnel's blend; then the block's pixels, the reflection
+    `depth` mirrors deep (_deeper), Fresnel's blend (ggx and lit: glTF's BRDF, brdf.py, whose
+    direct light has its own Fresnel split: the reflection is added, F x it); then the block's pixels, the reflection
     (RGBA) into frame.aux, and the uncovered pixels around them. Returns the rays traced."""
     pix = frame.pix
     n = pix.shape[0]
@@ -131,11 +131,12 @@ def reflections_frame(workers, scene, frame, base, thr, lit, depth):
             # ---- the local colour ----
             local = np.empty((nb, 3), np.float32)
             if lit:
+                acc = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
                 traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.eps, scene.far,
-                                                 frame.target, local)
+                                                 frame.target, acc)
                 for j in range(nb):
                     for a in range(3):
-                        local[j, a] *= albedo[j, a] * INV_PI
+                        local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
             else:
                 local[:] = albedo
             # ---- mirror rays from the smooth points, their hits, and deeper mirrors ----
@@ -152,18 +153,18 @@ def reflections_frame(workers, scene, frame, base, thr, lit, depth):
                 skeys[k] = keys[near[k]]
             refl = np.zeros((m, 3), np.float32)
             hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-                scene, frame, frame.p, frame.n, frame.ng, V, smooth[:m], skeys, 4, lit, refl)
+                scene, frame, frame.p, frame.n, frame.ng, V, smooth[:m], skeys, 4, lit, ggx, refl)
             traced[w] += t
             if depth > 1:
-                traced[w] += _deeper(scene, frame, depth, thr, lit, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits,
-                                     hkeys, colour)
+                traced[w] += _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d,
+                                     hits, hkeys, colour)
             for i in range(hits.shape[0]):
                 for a in range(3):
                     refl[hits[i], a] = colour[i, a]
             # ---- Fresnel's blend, and the pixels ----
             reflection = np.zeros((nb, 4), np.float32)
             gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo, frame.metallic[b0:b1],
-                                frame.n[b0:b1], V, refl, reflection)
+                                frame.n[b0:b1], V, refl, reflection, ggx and lit)
             local += frame.emissive[b0:b1]
             gather.put_rows(frame.out, pix[b0:b1], local)
             gather.put_rows(frame.aux, pix[b0:b1], reflection)
@@ -178,5 +179,5 @@ def trace(rf) -> dict:
     rf.tracer.rays_traced += rf.tracer.run_parallel(
         reflections_frame, rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(3),
         np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-        rf.options.get("reflections.max_depth"))
+        rf.options.get("reflections.max_depth"), rf.ggx)
     return rf.outputs(out, rt_reflection=reflection_image)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.embree import kernels, raygen, rtcore, scratch
+from rt.embree import brdf, kernels, raygen, rtcore, scratch
 from rt.embree.tracer import Hits, Tracer
 from rt.lights import LUMA, LightSet  # noqa: F401  (LUMA: re-exported for reference.py)
 from rt.mesh import MeshArrays
@@ -135,26 +135,27 @@ def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax,
                                         idx, rtcore.target(scene), acc)
 
 
-def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int) -> None:
+def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int, G) -> None:
     """total += the light of the first m packed rays that reach their light (added already by
-    their generator if it traced them: scene)."""
+    their generator if it traced them: scene); G: the points' (rows, first column)."""
     if scene:
         tracer.rays_traced += m
         return
     o, d, t, idx, e = rays
     blocked = tracer.occluded(o[:m], d[:m], t[:m]) if (shadowed and m) else np.zeros(m, np.bool_)
-    raygen.add_unblocked(total, idx, e, blocked, m)
+    raygen.add_unblocked(total, idx, d, e, blocked, m, *G)
 
 
 def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None,
                G=None) -> np.ndarray:
     """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
     contribution there and divided by that probability: accumulates to every light's sum.
-    out: an (N,3) array to write into (zeroed here) instead of a new one; G: s.soa() if at hand."""
+    out: an (N,3) array to write into (zeroed here) instead of a new one, or a GGX accumulator
+    (rt/embree/brdf.py: its sums zeroed here); G: s.soa() if at hand."""
     n = len(s)
     dim = rng.reserve(4)
     total = np.zeros((n, 3), np.float32) if out is None else out
-    total.fill(0)
+    total[:, :min(total.shape[1], brdf.SUM_EDVW + 3)] = 0
     if data.lights.count == 0 or n == 0:
         return total
     rays = scratch.rays("light", n, with_light=True)
@@ -162,7 +163,7 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     G = s.soa("light.soa") if G is None else G
     scene = tracer.inline_scene() if shadowed else 0  # then the generator traces, adding into total
     m = one_light_rays(data.lights, G, rng.key, dim, o, d, t, e, idx, scene, total)
-    _gather(tracer, total, rays, m, shadowed, scene)
+    _gather(tracer, total, rays, m, shadowed, scene, G)
     return total
 
 

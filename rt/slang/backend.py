@@ -226,6 +226,7 @@ class SlangBackend(Backend):
             if effect != "ao":
                 self.scene.bind_lights(c["g_lights"])
                 c["g_far"] = float(self.scene.arrays.far)
+                c["g_ggx"] = int(self.scene.arrays.scene.uses_ggx(inputs.options.get("brdf")))
             c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
             self._environment(c["g_env"])
             c["g_width"] = w

@@ -293,7 +293,7 @@ class _Reader:
             raise UserError(f"{self.path.name}: the file has no triangle meshes")
         scene = Scene(self.path.stem, np.concatenate(pos), np.concatenate(nrm), np.concatenate(uvs),
                       np.concatenate(idx), np.concatenate(mid), mats, lights, Environment("black"), views,
-                      str(self.path))
+                      str(self.path), brdf="ggx")
         if any(mat.normal_map is not None for mat in mats):
             scene.tangents = np.concatenate(tangents)
         if any(c is not None for c in colors):  # white where a primitive has none

@@ -1,0 +1,164 @@
+"""glTF's metal-rough BRDF in the Embree kernels (option `brdf=ggx`; the formulas are in
+docs/ARCHITECTURE.md "Materials", and the same in shaders/common.glsl and shaders/rt/brdf.slang):
+
+    f(v, l) = c_diff (1 - F) / pi + F D V,   c_diff = base (1 - metallic),
+    F = F0 + (1 - F0) w,  w = (1 - v.h)^5,   F0 = 0.04 (1 - metallic) + base metallic,
+    D = a2 / (pi ((n.h)^2 (a2 - 1) + 1)^2),  a = roughness^2,
+    V = G1(v) G1(l) / (4 n.l n.v) = 1 / ((n.v + L(n.v)) (n.l + L(n.l))),  L(c) = sqrt(a2 + (1 - a2) c^2)
+
+(Smith's separable shadowing-masking, as Mitsuba 3's GGX). Direct light adds up per point
+before the material is applied, so a point's light accumulator keeps four sums per channel over
+its light samples e (irradiance x cos): e, e w, e D V and e D V w, from which the radiance is
+
+    c_diff (1 - F0) / pi (sum e - sum e w) + F0 sum e D V + (1 - F0) sum e D V w.
+
+Such an accumulator has GGX_COLS columns: the sums, then the point's view direction (towards
+the viewer) and its alpha, written before the light is sampled (start) and read where a light
+sample is added (add_light, in rt/embree/raygen.py). A plain accumulator (3 columns) keeps the
+sum of e alone: the study's Lambert model."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+F = np.float32
+ZERO, ONE = F(0.0), F(1.0)
+INV_PI = F(1 / np.pi)
+MIN_ALPHA = F(1e-3)
+MIN_COS = F(1e-4)
+MIRROR_ROUGHNESS = 0.1  # smoother: the reference path tracer's specular lobe is reached by bounces alone
+SUM_E, SUM_EW, SUM_EDV, SUM_EDVW, VIEW, ALPHA = 0, 3, 6, 9, 12, 15
+GGX_COLS = 16
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def alpha(roughness):
+    return max(roughness * roughness, MIN_ALPHA)
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def ggx_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, a):
+    """(w, D V) for unit normal n, view v, light l and alpha a (module notes)."""
+    hx, hy, hz = vx + lx, vy + ly, vz + lz
+    hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+    inv = ONE / hl if hl > F(1e-12) else ZERO
+    hx, hy, hz = hx * inv, hy * inv, hz * inv
+    k = ONE - min(max(vx * hx + vy * hy + vz * hz, ZERO), ONE)
+    w = k * k * k * k * k
+    nh = max(nx * hx + ny * hy + nz * hz, ZERO)
+    nv = max(nx * vx + ny * vy + nz * vz, MIN_COS)
+    nl = max(nx * lx + ny * ly + nz * lz, MIN_COS)
+    a2 = a * a
+    t = nh * nh * (a2 - ONE) + ONE
+    d = a2 * INV_PI / (t * t)
+    vis = ONE / ((nv + np.sqrt(a2 + (ONE - a2) * nv * nv)) * (nl + np.sqrt(a2 + (ONE - a2) * nl * nl)))
+    return w, d * vis
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def add_light(acc, i, ex, ey, ez, nx, ny, nz, lx, ly, lz):
+    """acc[i] gains light sample (ex, ey, ez) (irradiance x cos) arriving along unit (lx, ly, lz)
+    at a point of shading normal n: its sum, and with GGX_COLS columns the GGX terms' sums."""
+    acc[i, 0] += ex
+    acc[i, 1] += ey
+    acc[i, 2] += ez
+    if acc.shape[1] < GGX_COLS:
+        return
+    w, dv = ggx_terms(nx, ny, nz, acc[i, VIEW], acc[i, VIEW + 1], acc[i, VIEW + 2], lx, ly, lz, acc[i, ALPHA])
+    acc[i, SUM_EW] += ex * w
+    acc[i, SUM_EW + 1] += ey * w
+    acc[i, SUM_EW + 2] += ez * w
+    acc[i, SUM_EDV] += ex * dv
+    acc[i, SUM_EDV + 1] += ey * dv
+    acc[i, SUM_EDV + 2] += ez * dv
+    acc[i, SUM_EDVW] += ex * dv * w
+    acc[i, SUM_EDVW + 1] += ey * dv * w
+    acc[i, SUM_EDVW + 2] += ez * dv * w
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def f0(base, metallic):
+    return F(0.04) * (ONE - metallic) + base * metallic
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def diffuse_weight(base, metallic):
+    """What light arriving from every side (cosine-weighted) is multiplied by to leave
+    diffusely, x pi: c_diff (1 - F0) (the Fresnel weight of the sample's own half vector is
+    left out: GI's bounces, the passes' approximation; the reference path tracer has it)."""
+    return base * (ONE - metallic) * (ONE - f0(base, metallic))
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def outgoing(acc, i, a, base, metallic):
+    """The direct radiance, channel a, that accumulator row acc[i] (GGX_COLS columns) gives a
+    material of base colour `base` (that channel) and `metallic`."""
+    c = base * (ONE - metallic)
+    r = f0(base, metallic)
+    return (c * INV_PI * (ONE - r) * (acc[i, SUM_E + a] - acc[i, SUM_EW + a]) + r * acc[i, SUM_EDV + a]
+            + (ONE - r) * acc[i, SUM_EDVW + a])
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def light_out(acc, i, a, base, metallic):
+    """Direct radiance leaving point i, channel a, from its accumulator: GGX (GGX_COLS columns)
+    or Lambert (base / pi x the sum)."""
+    if acc.shape[1] >= GGX_COLS:
+        return outgoing(acc, i, a, base, metallic)
+    return base * acc[i, a] * INV_PI
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def accumulator(ggx, D, rows, rough):
+    """A zeroed light accumulator for the points i < len(rows) seen along ray directions
+    D[rows[i]] (from the viewer towards the point), of roughness rough[i]: 3 columns, or with
+    ggx GGX_COLS with each point's view direction (-D) and alpha."""
+    n = rows.shape[0]
+    if not ggx:
+        return np.zeros((n, 3), np.float32)
+    acc = np.zeros((n, GGX_COLS), np.float32)
+    for i in range(n):
+        r = rows[i]
+        acc[i, VIEW], acc[i, VIEW + 1], acc[i, VIEW + 2] = -D[r, 0], -D[r, 1], -D[r, 2]
+        acc[i, ALPHA] = alpha(rough[i])
+    return acc
+
+
+# ---- whole arrays (the reference path tracer, rt/embree/reference.py) -------------------------
+def _dot(a, b):
+    return np.einsum("ij,ij->i", a, b)
+
+
+def _unit(a):
+    return a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-20)
+
+
+def schlick(f0_rgb: np.ndarray, cos: np.ndarray) -> np.ndarray:
+    k = 1.0 - np.clip(cos, 0.0, 1.0)
+    return f0_rgb + (1.0 - f0_rgb) * (k**5)[:, None]
+
+
+def smith_g1(cos: np.ndarray, a: np.ndarray) -> np.ndarray:
+    cos = np.maximum(cos, float(MIN_COS))
+    return 2.0 * cos / (cos + np.sqrt(a * a + (1.0 - a * a) * cos * cos))
+
+
+def sample_visible_normal(n: np.ndarray, v: np.ndarray, a: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """GGX microfacet normals drawn with probability ~ their visible area from v (Heitz 2018,
+    "Sampling the GGX Distribution of Visible Normals"), about unit normals n; u: (N, 2) uniforms."""
+    t = _unit(np.where(np.abs(n[:, :1]) > 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]]) - n * n[:, :1])
+    b = np.cross(n, t)
+    vl = np.stack([_dot(v, t), _dot(v, b), np.maximum(_dot(v, n), float(MIN_COS))], axis=1)
+    vh = _unit(np.stack([a * vl[:, 0], a * vl[:, 1], vl[:, 2]], axis=1))
+    lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
+    inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-30)), 0.0)
+    t1 = np.where((lensq > 0)[:, None], np.stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros_like(inv)], 1),
+                  [[1.0, 0.0, 0.0]])
+    t2 = np.cross(vh, t1)
+    r, phi = np.sqrt(u[:, 0]), 2.0 * np.pi * u[:, 1]
+    p1, p2 = r * np.cos(phi), r * np.sin(phi)
+    s = 0.5 * (1.0 + vh[:, 2])
+    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
+    nh = p1[:, None] * t1 + p2[:, None] * t2 + np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))[:, None] * vh
+    m = _unit(np.stack([a * nh[:, 0], a * nh[:, 1], np.maximum(nh[:, 2], 0.0)], axis=1))
+    return m[:, :1] * t + m[:, 1:2] * b + m[:, 2:] * n

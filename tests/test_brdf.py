@@ -1,0 +1,140 @@
+"""glTF's metal-rough BRDF (option brdf; docs/ARCHITECTURE.md "Materials") in every renderer:
+closed-form direct light on coloured dielectric and metal floors, and Mitsuba 3's renders of
+white GGX metal spheres (tests/refs/make_mitsuba_refs.py), on the raster path, Embree and
+Vulkan (lavapipe); built-in scenes keep the study's Lambert model."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from app.camera import Camera
+from scenes.builtin import build_builtin
+from scenes.loaders import load_scene
+from tests.gltf_writer import ggx_quads_document, ggx_spheres_document
+from tests.test_rt import run
+
+REFS = __import__("pathlib").Path(__file__).parent / "refs"
+
+
+def _erode(mask, steps=1):
+    """mask without its pixels within `steps` of a pixel outside it (8-neighbourhood)."""
+    for _ in range(steps):
+        m = np.pad(mask, 1)
+        out = np.ones_like(mask)
+        for dy in (0, 1, 2):
+            for dx in (0, 1, 2):
+                out &= m[dy:dy + mask.shape[0], dx:dx + mask.shape[1]]
+        mask = out
+    return mask
+
+
+def _load(tmp_path, doc):
+    path = tmp_path / "scene.gltf"
+    path.write_text(json.dumps(doc))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_scene(str(path))
+
+
+def gltf_brdf(base, metallic, roughness, n, v, l):
+    """The glTF spec's metal-rough BRDF (its appendix B) with Smith's separable G, written out
+    here apart from rtlab's own code: (..., 3) arrays of unit vectors, base (3,)."""
+    base = np.asarray(base, np.float64)
+    a2 = roughness**4
+    h = v + l
+    h /= np.linalg.norm(h, axis=-1, keepdims=True)
+    nv, nl, nh, vh = ((n * v).sum(-1), (n * l).sum(-1), (n * h).sum(-1), (v * h).sum(-1))
+    d = a2 / (np.pi * (nh**2 * (a2 - 1) + 1) ** 2)
+
+    def g1(c):
+        return 2 * c / (c + np.sqrt(a2 + (1 - a2) * c**2))
+
+    f0 = 0.04 * (1 - metallic) + base * metallic
+    f = f0 + (1 - f0) * ((1 - vh) ** 5)[..., None]
+    spec = f * (d * g1(nv) * g1(nl) / (4 * nv * nl))[..., None]
+    return (1 - f) * base * (1 - metallic) / np.pi + spec
+
+
+QUADS = [(-2.1, (0.8, 0.1, 0.1), 0.0, 0.3), (0.0, (1.0, 0.78, 0.34), 1.0, 0.4), (2.1, (0.6, 0.6, 0.6), 0.5, 0.7)]
+
+
+@pytest.mark.parametrize("pass_name,sets", [("forward", ()), ("shadows", ()), ("shadows", ("tracer=vulkan",)),
+                                            ("hybrid", ()), ("reference", ()), ("reference", ("tracer=vulkan",))])
+def test_direct_light_on_floors_matches_the_formula(gl, tmp_path, pass_name, sets):
+    scene = _load(tmp_path, ggx_quads_document())
+    assert scene.uses_ggx("auto")
+    light = scene.lights[0]
+    pos = run(gl, scene, "position", size=(96, 54)).astype(np.float64)
+    got = run(gl, scene, pass_name, size=(96, 54), sets=("env=black",) + sets)
+    view = scene.default_view()
+    to_light = np.asarray(light.position) - pos
+    dist2 = (to_light**2).sum(-1, keepdims=True)
+    l = to_light / np.sqrt(dist2)
+    v = np.asarray(view.eye) - pos
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    n = np.broadcast_to([0.0, 1.0, 0.0], pos.shape)
+    checked = 0
+    for x, base, metal, rough in QUADS:
+        inside = (np.abs(pos[..., 0] - x) < 0.9) & (np.abs(pos[..., 2]) < 0.9) & (np.abs(pos[..., 1]) < 1e-4)
+        inside = _erode(inside & (np.abs(pos).sum(-1) > 0))  # not the background
+        want = gltf_brdf(base, metal, rough, n, v, l) * light.intensity * l[..., 1:2] / dist2
+        rel = np.abs(got[inside] - want[inside]) / np.maximum(want[inside], 1e-3)
+        assert np.median(rel) < 0.01 and np.percentile(rel, 95) < 0.03, (x, np.median(rel), np.percentile(rel, 95))
+        checked += inside.sum()
+    assert checked > 600
+
+
+def _mitsuba(name):
+    ref = np.load(REFS / f"{name}.npy").astype(np.float32)
+    # pixels well inside the spheres (rtlab samples pixel centres, Mitsuba filters over each pixel)
+    covered = _erode(np.abs(ref.mean(-1) - ref[0, 0].mean()) > 1e-3, 2)
+    return ref, covered & (ref.mean(-1) > 0.01)
+
+
+@pytest.mark.parametrize("pass_name,sets", [("forward", ()), ("shadows", ()), ("shadows", ("tracer=vulkan",))])
+def test_rough_metal_spheres_match_mitsuba(gl, tmp_path, pass_name, sets):
+    """Direct light from a point light on GGX spheres of roughness 0.25, 0.5, 0.8: D, G and the
+    alpha mapping against Mitsuba 3's roughconductor."""
+    scene = _load(tmp_path, ggx_spheres_document())
+    ref, keep = _mitsuba("ggx_spheres_direct")
+    got = run(gl, scene, pass_name, size=(128, 64), sets=("env=black",) + sets)
+    assert keep.sum() > 400
+    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
+    assert np.median(rel) < 0.02 and np.percentile(rel, 90) < 0.06, (np.median(rel), np.percentile(rel, 90))
+
+
+@pytest.mark.parametrize("sets,frames", [((), 256), (("tracer=vulkan",), 64)])
+def test_reference_matches_mitsuba_path_tracer(gl, tmp_path, sets, frames):
+    """The reference path tracer samples GGX's visible normals: the spheres under a point light
+    and a constant sky, 3 bounces, against Mitsuba's path tracer."""
+    scene = _load(tmp_path, ggx_spheres_document())
+    ref, keep = _mitsuba("ggx_spheres_env")
+    got = run(gl, scene, "reference", frames=frames, size=(128, 64),
+              sets=("env=0.5,0.5,0.5", "reference.max_bounces=3", "reference.rr_start=8") + sets)
+    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
+    assert got[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.02)
+    assert np.median(rel) < 0.03, np.median(rel)
+
+
+def test_builtin_scenes_keep_the_study_model_unless_asked(gl):
+    scene = build_builtin("arcade")
+    assert not scene.uses_ggx("auto") and scene.uses_ggx("ggx")
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    lambert = run(gl, scene, "shadows", camera=cam)
+    assert np.array_equal(run(gl, scene, "shadows", camera=cam, sets=("brdf=lambert",)), lambert)
+    ggx = run(gl, scene, "shadows", camera=cam, sets=("brdf=ggx",))
+    assert np.abs(ggx - lambert).mean() > 0.01 * lambert.mean()
+
+
+def test_lambert_option_on_a_gltf_scene(gl, tmp_path):
+    """brdf=lambert shades a glTF file as the study did: albedo / pi, no highlight."""
+    scene = _load(tmp_path, ggx_quads_document())
+    light = scene.lights[0]
+    pos = run(gl, scene, "position", size=(96, 54)).astype(np.float64)
+    got = run(gl, scene, "shadows", size=(96, 54), sets=("brdf=lambert", "env=black"))
+    to_light = np.asarray(light.position) - pos
+    dist2 = (to_light**2).sum(-1)
+    inside = (np.abs(pos[..., 0] + 2.1) < 0.85) & (np.abs(pos[..., 2]) < 0.85) & (np.abs(pos).sum(-1) > 0)
+    want = np.array([0.8, 0.1, 0.1]) / np.pi * (light.intensity * to_light[..., 1] / dist2**1.5)[..., None]
+    np.testing.assert_allclose(got[inside], want[inside], rtol=0.01, atol=1e-4)
