@@ -122,7 +122,7 @@ class Panel:
             if changed:
                 v.pass_name = ALL[idx]
             self._compare(imgui)
-            for key in ("exposure", "env", "accumulate", "max_frames", "gbuffer", "tracer"):
+            for key in ("exposure", "env", "brdf", "accumulate", "max_frames", "gbuffer", "tracer"):
                 self._option(imgui, key)
             _, v.resolution_scale = imgui.slider_float("resolution scale", v.resolution_scale, 0.25, 1.0, "%.2f")
             _, v.motion_scale = imgui.slider_float("scale while moving", v.motion_scale, 0.25, 1.0, "%.2f")
