@@ -15,6 +15,8 @@ class ReflectionsOptions:
     roughness_threshold: float = opt(0.3, "reflect on surfaces smoother than this", 0.0, 1.0)
     max_depth: int = opt(1, "mirror bounces (the study used 1)", 1, 16)
     lit: bool = opt(True, "shade hits with direct light and shadow rays (false: material colour, as the study)")
+    glossy: bool = opt(False, "with brdf=ggx and lit hits: surfaces at or above the threshold reflect one ray from "
+                       "their GGX lobe per pixel and frame (accumulation converges it); false: the study's")
 
 
 register_group("reflections", ReflectionsOptions)

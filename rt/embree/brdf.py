@@ -124,6 +124,54 @@ def accumulator(ggx, D, rows, rough):
     return acc
 
 
+GLOSSY_DIM = 72  # the reflections pass's glossy rays: their two numbers (above every mirror level's lights)
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _frame(nx, ny, nz):
+    """A tangent t and bitangent b about unit n (sample_visible_normal's frame)."""
+    if abs(nx) > F(0.9):
+        tx, ty, tz = -nx * ny, ONE - ny * ny, -nz * ny
+    else:
+        tx, ty, tz = ONE - nx * nx, -ny * nx, -nz * nx
+    inv = ONE / np.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx * inv, ty * inv, tz * inv
+    return tx, ty, tz, ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def visible_normal(nx, ny, nz, vx, vy, vz, a, u0, u1):
+    """sample_visible_normal (below) for one point: a GGX microfacet normal about n seen from v."""
+    tx, ty, tz, bx, by, bz = _frame(nx, ny, nz)
+    lx, ly, lz = a * (vx * tx + vy * ty + vz * tz), a * (vx * bx + vy * by + vz * bz), max(vx * nx + vy * ny + vz * nz,
+                                                                                            MIN_COS)
+    inv = ONE / np.sqrt(lx * lx + ly * ly + lz * lz)
+    hx, hy, hz = lx * inv, ly * inv, lz * inv
+    lensq = hx * hx + hy * hy
+    if lensq > ZERO:
+        k = ONE / np.sqrt(lensq)
+        t1x, t1y, t1z = -hy * k, hx * k, ZERO
+    else:
+        t1x, t1y, t1z = ONE, ZERO, ZERO
+    t2x, t2y, t2z = hy * t1z - hz * t1y, hz * t1x - hx * t1z, hx * t1y - hy * t1x
+    r, phi = np.sqrt(u0), F(2 * np.pi) * u1
+    p1, p2 = r * np.cos(phi), r * np.sin(phi)
+    s = F(0.5) * (ONE + hz)
+    p2 = (ONE - s) * np.sqrt(max(ONE - p1 * p1, ZERO)) + s * p2
+    p3 = np.sqrt(max(ONE - p1 * p1 - p2 * p2, ZERO))
+    mx, my, mz = p1 * t1x + p2 * t2x + p3 * hx, p1 * t1y + p2 * t2y + p3 * hy, p1 * t1z + p2 * t2z + p3 * hz
+    mx, my, mz = a * mx, a * my, max(mz, ZERO)
+    inv = ONE / np.sqrt(mx * mx + my * my + mz * mz)
+    mx, my, mz = mx * inv, my * inv, mz * inv
+    return (mx * tx + my * bx + mz * nx, mx * ty + my * by + mz * ny, mx * tz + my * bz + mz * nz)
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def g1(c, a):
+    c = max(c, MIN_COS)
+    return F(2.0) * c / (c + np.sqrt(a * a + (ONE - a * a) * c * c))
+
+
 # ---- whole arrays (the reference path tracer, rt/embree/reference.py) -------------------------
 def _dot(a, b):
     return np.einsum("ij,ij->i", a, b)
@@ -146,7 +194,8 @@ def smith_g1(cos: np.ndarray, a: np.ndarray) -> np.ndarray:
 def sample_visible_normal(n: np.ndarray, v: np.ndarray, a: np.ndarray, u: np.ndarray) -> np.ndarray:
     """GGX microfacet normals drawn with probability ~ their visible area from v (Heitz 2018,
     "Sampling the GGX Distribution of Visible Normals"), about unit normals n; u: (N, 2) uniforms."""
-    t = _unit(np.where(np.abs(n[:, :1]) > 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]]) - n * n[:, :1])
+    e = np.where(np.abs(n[:, :1]) > 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
+    t = _unit(e - n * _dot(e, n)[:, None])
     b = np.cross(n, t)
     vl = np.stack([_dot(v, t), _dot(v, b), np.maximum(_dot(v, n), float(MIN_COS))], axis=1)
     vh = _unit(np.stack([a * vl[:, 0], a * vl[:, 1], vl[:, 2]], axis=1))

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rt.embree import brdf
 from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
-from rt.embree.kernels import environment_rgb, environment_terms
+from rt.embree.kernels import environment_rgb, environment_terms, uniform
 from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
 
 INV_PI = np.float32(1 / np.pi)
@@ -195,3 +196,28 @@ def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflectio
         if reflection is not None:
             reflection[i, 0], reflection[i, 1], reflection[i, 2], reflection[i, 3] = (
                 inner[k, 0], inner[k, 1], inner[k, 2], np.float32(1.0))
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def glossy_ray(p, n, ng, view, albedo, metallic, roughness, key, eps, origin, direction, weight):
+    """A ray from point p (shading normal n, true normal ng) seen along `view` into its GGX lobe:
+    a visible normal m (brdf.visible_normal, numbers brdf.GLOSSY_DIM + 0, 1), direction
+    l = reflect(-v, m) and weight F(v.m) G1(l) per channel, 0 where l leaves below the surface."""
+    vx, vy, vz = -view[0], -view[1], -view[2]
+    a = brdf.alpha(roughness)
+    mx, my, mz = brdf.visible_normal(n[0], n[1], n[2], vx, vy, vz, a, uniform(key, brdf.GLOSSY_DIM),
+                                     uniform(key, brdf.GLOSSY_DIM + 1))
+    vm = vx * mx + vy * my + vz * mz
+    lx, ly, lz = 2 * vm * mx - vx, 2 * vm * my - vy, 2 * vm * mz - vz
+    direction[0], direction[1], direction[2] = lx, ly, lz
+    s = eps * (ONE + max(abs(p[0]), abs(p[1]), abs(p[2])) * np.float32(1e-3))
+    for c in range(3):
+        origin[c] = p[c] + ng[c] * s
+    nl = n[0] * lx + n[1] * ly + n[2] * lz
+    if nl > ZERO and ng[0] * lx + ng[1] * ly + ng[2] * lz > ZERO:
+        g = brdf.g1(nl, a)
+        k = ONE - min(max(vm, ZERO), ONE)
+        w = k * k * k * k * k
+        for c in range(3):
+            f0 = brdf.f0(albedo[c], metallic)
+            weight[c] = (f0 + (ONE - f0) * w) * g

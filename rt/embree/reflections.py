@@ -17,15 +17,22 @@ _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, refl):
     """One mirror bounce: from the points sel[k] of (P, N, NG) seen along V[k] (keys[k]: their
     generators), ray k's closest hit shaded (lit: with its own light sample, dimensions
-    dim0..dim0+3; ggx: glTF's BRDF, brdf.py) and its colour; refl[k] gains the environment where ray k missed. Returns
-    the rays that hit (hits), every ray's direction (d), the hits' shading (P, N, NG, albedo,
-    roughness, metallic, emission), colour and keys, and the rays traced."""
-    (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
-     colors) = scene.mesh
-    env_kind, env_color, horizon, zenith, ground = frame.env
+    dim0..dim0+3; ggx: glTF's BRDF, brdf.py) and its colour; refl[k] gains the environment where
+    ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
+    (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
     gather.mirror_rays(P, N, NG, V, sel, scene.eps, o, d)
+    return _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl):
+    """_mirror_hits for rays (o, d) already made (keys[k]: ray k's generator)."""
+    (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
+     colors) = scene.mesh
+    env_kind, env_color, horizon, zenith, ground = frame.env
+    m = o.shape[0]
     th, prim = np.empty(m, np.float32), np.empty(m, np.int32)  # hits: distance, triangle, barycentrics
     u, v = np.empty(m, np.float32), np.empty(m, np.float32)
     embree.trace_intersect(frame.target, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
@@ -106,14 +113,46 @@ def _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmeta
     return traced
 
 
+@njit(cache=True, error_model="numpy", nogil=True)
+def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
+    """GGX's glossy reflection at the block's points at or above thr (brdf=ggx, lit colours):
+    one ray per point from its lobe (visible normals, dimensions brdf.GLOSSY_DIM + 0, 1), its
+    hit's lit colour (light dimensions 4..7) or the environment, added to local[j] with the
+    sample's weight F(v.m) G1(l) (rt/embree/brdf.py). Returns the rays traced."""
+    rows = np.empty(nb, np.int64)
+    m = 0
+    for j in range(nb):
+        if not frame.roughness[b0 + j] < thr:
+            rows[m] = j
+            m += 1
+    o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
+    weight, gkeys = np.zeros((m, 3), np.float32), np.empty(m, np.uint64)
+    for k in range(m):
+        j = rows[k]
+        i, p = b0 + j, pix[b0 + j]
+        gkeys[k] = keys[j]
+        gather.glossy_ray(frame.p[i], frame.n[i], frame.ng[i], frame.view_dir[p], frame.albedo[i],
+                          frame.metallic[i], frame.roughness[i], keys[j], scene.eps, o[k], d[k], weight[k])
+    refl = np.zeros((m, 3), np.float32)
+    hits, _, _, _, _, _, _, _, _, colour, _, traced = _hits_of(scene, frame, o, d, gkeys, 4, True, True, refl)
+    for i in range(hits.shape[0]):
+        for a in range(3):
+            refl[hits[i], a] = colour[i, a]
+    for k in range(m):
+        for a in range(3):
+            local[rows[k], a] += weight[k, a] * refl[k, a]
+    return traced
+
+
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, scene, frame, base, thr, lit, depth, ggx):
+def reflections_frame(workers, scene, frame, base, thr, lit, depth, ggx, glossy):
     """The whole reflections pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs;
     base: RtFrame.key_base). Blocks of points split among workers, each block: the local colour
     (lit: one chosen light, shadowed; else the albedo, as the study), a mirror ray from each
     point smoother than thr, its closest hit shaded (lit: with its own light sample), up to
     `depth` mirrors deep (_deeper), Fresnel's blend (ggx and lit: glTF's BRDF, brdf.py, whose
-    direct light has its own Fresnel split: the reflection is added, F x it); then the block's pixels, the reflection
+    direct light has its own Fresnel split: the reflection is added, F x it; with glossy, points at
+    or above thr add one ray of their GGX lobe, _glossy); then the block's pixels, the reflection
     (RGBA) into frame.aux, and the uncovered pixels around them. Returns the rays traced."""
     pix = frame.pix
     n = pix.shape[0]
@@ -165,6 +204,8 @@ def reflections_frame(workers, scene, frame, base, thr, lit, depth, ggx):
             reflection = np.zeros((nb, 4), np.float32)
             gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo, frame.metallic[b0:b1],
                                 frame.n[b0:b1], V, refl, reflection, ggx and lit)
+            if glossy and ggx and lit:
+                traced[w] += _glossy(scene, frame, pix, b0, nb, keys, thr, local)
             local += frame.emissive[b0:b1]
             gather.put_rows(frame.out, pix[b0:b1], local)
             gather.put_rows(frame.aux, pix[b0:b1], reflection)
@@ -179,5 +220,5 @@ def trace(rf) -> dict:
     rf.tracer.rays_traced += rf.tracer.run_parallel(
         reflections_frame, rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(3),
         np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-        rf.options.get("reflections.max_depth"), rf.ggx)
+        rf.options.get("reflections.max_depth"), rf.ggx, rf.options.get("reflections.glossy"))
     return rf.outputs(out, rt_reflection=reflection_image)

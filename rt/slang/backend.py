@@ -204,7 +204,8 @@ class SlangBackend(Backend):
                     "g_max_bounces": int(opts.get("reference.max_bounces")),
                     "g_rr_start": int(opts.get("reference.rr_start"))}
         return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
-                "g_depth": int(opts.get("reflections.max_depth")), "g_lit": int(bool(opts.get("reflections.lit")))}
+                "g_depth": int(opts.get("reflections.max_depth")), "g_lit": int(bool(opts.get("reflections.lit"))),
+                "g_glossy": int(bool(opts.get("reflections.glossy")))}
 
     def _run(self, effect: str, channels) -> dict:
         """One effect's pipeline over the image: radiance (3 floats a pixel) and its own image."""
