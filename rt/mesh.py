@@ -50,7 +50,8 @@ class MeshArrays:
         # alpha: each material's cutoff (-1: never cut), its base alpha factor and wrap modes
         self.alpha_cutoff = f32([m.alpha_cutoff if m.alpha_tested else -1.0 for m in mats])
         self.base_alpha = f32([m.base_color[3] if len(m.base_color) > 3 else 1.0 for m in mats])
-        self.wrap = np.asarray([m.wrap for m in mats], np.int64).reshape(-1, 2)
+        # wrap modes u, v, and 1 where layers are read at the nearest texel (Material.nearest)
+        self.wrap = np.asarray([(*m.wrap, int(m.nearest)) for m in mats], np.int64).reshape(-1, 3)
         # every texture layer (Material.layers: base RGBA, ORM, normal, emission) in one flat
         # RGBA texel array: offset (-1: none), width and height per material and layer
         self.tex_offset = np.full((len(mats), LAYERS), -1, np.int64)

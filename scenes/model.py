@@ -38,6 +38,7 @@ class Material:
     alpha_mode: str = "OPAQUE"  # OPAQUE | MASK (alpha_cutoff) | BLEND (drawn as MASK at alpha_cutoff 0.5)
     alpha_cutoff: float = 0.5
     wrap: tuple = (WRAP_REPEAT, WRAP_REPEAT)  # u, v
+    nearest: bool = False  # glTF magFilter NEAREST: every layer read at its nearest texel (else bilinear)
 
     @property
     def is_emissive(self) -> bool:

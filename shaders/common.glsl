@@ -22,7 +22,7 @@ struct MaterialSample {
 // array's sampler repeats. (Plain texture(), not textureGrad: llvmpipe's code for explicit
 // gradients costs memory per shader variant; a mirrored seam may pick a coarser mip.)
 vec2 wrap_uv(vec2 uv, int wrap) {
-    ivec2 mode = ivec2(wrap % 3, wrap / 3);
+    ivec2 mode = ivec2(wrap % 3, (wrap / 3) % 3);
     vec2 size = vec2(textureSize(base_textures, 0).xy);
     vec2 out_uv = uv;
     for (int a = 0; a < 2; ++a) {
@@ -32,7 +32,20 @@ vec2 wrap_uv(vec2 uv, int wrap) {
     return out_uv;
 }
 
+// wrap >= 9: Material.nearest, the texel the point falls in (no filtering, no mip maps)
 vec4 layer_sample(float layer, vec2 uv, int wrap) {
+    if (wrap >= 9) {
+        ivec2 size = textureSize(base_textures, 0).xy;
+        ivec2 mode = ivec2(wrap % 3, (wrap / 3) % 3);
+        ivec2 t = ivec2(floor(clamp(uv, -1e6, 1e6) * vec2(size)));
+        for (int a = 0; a < 2; ++a) {
+            int n = size[a];
+            if (mode[a] == 1) t[a] = clamp(t[a], 0, n - 1);
+            else if (mode[a] == 2) { int i = ((t[a] % (2 * n)) + 2 * n) % (2 * n); t[a] = i < n ? i : 2 * n - 1 - i; }
+            else t[a] = ((t[a] % n) + n) % n;
+        }
+        return texelFetch(base_textures, ivec3(t, int(layer + 0.5)), 0);
+    }
     return texture(base_textures, vec3(wrap == 0 ? uv : wrap_uv(uv, wrap), layer));
 }
 

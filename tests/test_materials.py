@@ -173,3 +173,25 @@ def test_vertex_colours_tint_the_base_colour(gl, tmp_path, pass_name, sets):
     t = (z + 2) / 4  # red at z = -2 to blue at z = +2
     want = np.stack([0.5 * (1 - t), np.zeros(32), t], 1)  # times baseColorFactor (0.5, 1, 1)
     np.testing.assert_allclose(img[:, 12:20].mean(axis=1), want, atol=0.03)
+
+
+@pytest.mark.parametrize("sets", [(), ("gbuffer=rt",), ("gbuffer=rt", "tracer=vulkan")])
+@pytest.mark.parametrize("mag", [9728, 9729])
+def test_sampler_nearest_or_linear(gl, tmp_path, sets, mag):
+    """A 2x2 texture, red left, green right: magFilter NEAREST reads the texel a point falls in
+    (pure red at u = 0.3), LINEAR blends with the next (bilinear: 0.9 red, 0.1 green there)."""
+    tex = np.zeros((2, 2, 3), np.uint8)
+    tex[:, 0, 0] = 255
+    tex[:, 1, 1] = 255
+    mat = {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0}}
+    doc = textured_scene([mat], [tex], [((0, 0, 0), 2, 0, "up")], [{"type": "directional", "node": SUN_DOWN}])
+    doc["samplers"] = [{"magFilter": mag, "minFilter": 9729}]
+    doc["textures"][0]["sampler"] = 0
+    scene = _write(tmp_path, doc)
+    assert scene.materials[0].nearest == (mag == 9728)
+    cam = parse_camera("eye=0,1,0;target=0,0,0;up=0,0,-1;fov=90", scene)
+    img = run(gl, scene, "albedo", size=(100, 100), camera=cam, sets=sets)
+    x = _floor_x(100, 1.0)
+    col = np.argmin(np.abs(x + 0.4))  # u = 0.3
+    red = img[40:60, col, 0].mean()
+    assert red == pytest.approx(1.0 if mag == 9728 else 0.9, abs=0.02)

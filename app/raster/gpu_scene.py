@@ -116,7 +116,8 @@ class GpuScene:
                 count += 1
             table[k * MAT_TEXELS + 0] = m.base_color[:4] if len(m.base_color) >= 4 else (*m.base_color, 1.0)
             table[k * MAT_TEXELS + 1] = (*m.emissive, index[0])
-            table[k * MAT_TEXELS + 2] = (m.roughness, m.metallic, float(m.double_sided), m.wrap[0] + 3 * m.wrap[1])
+            table[k * MAT_TEXELS + 2] = (m.roughness, m.metallic, float(m.double_sided),
+                                         m.wrap[0] + 3 * m.wrap[1] + 9 * int(m.nearest))
             table[k * MAT_TEXELS + 3] = (index[1], index[2], index[3], m.alpha_cutoff if m.alpha_tested else -1.0)
         self.alpha_tested = any(m.alpha_tested for m in mats)
         # the material features this scene uses: shaders compile only those (common.glsl); a

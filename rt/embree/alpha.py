@@ -43,7 +43,7 @@ def alpha_filter(args):
     tex_offset = carray(_pointer(data[TEX_OFFSET]), (nm, 4), np.int64)
     tex_w = carray(_pointer(data[TEX_W]), (nm, 4), np.int64)
     tex_h = carray(_pointer(data[TEX_H]), (nm, 4), np.int64)
-    wrap = carray(_pointer(data[WRAP]), (nm, 2), np.int64)
+    wrap = carray(_pointer(data[WRAP]), (nm, 3), np.int64)
     tex_data = carray(_pointer(data[TEX_DATA]), (nt, 4), np.float32)
     cutoff = carray(_pointer(data[CUTOFF]), nm, np.float32)
     base_alpha = carray(_pointer(data[BASE_ALPHA]), nm, np.float32)

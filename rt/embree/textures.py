@@ -42,6 +42,15 @@ def bilinear(off, tw, th, wu, wv, u, v):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def nearest(off, tw, th, wu, wv, u, v):
+    """bilinear's rows and weights for the one texel (u, v) falls in (its weight 1)."""
+    u = min(max(u, -UV_LIMIT), UV_LIMIT)
+    v = min(max(v, -UV_LIMIT), UV_LIMIT)
+    i = off + wrap_index(int(math.floor(v * th)), th, wv) * tw + wrap_index(int(math.floor(u * tw)), tw, wu)
+    return (i, i, i, i, 1.0, 0.0, 0.0, 0.0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def mix(tex_data, at, a):
     """Channel a of the bilinear sample at (bilinear's result)."""
     i00, i01, i10, i11, w00, w01, w10, w11 = at
@@ -55,6 +64,8 @@ def texels(tex_offset, tex_w, tex_h, wrap, m, k, u, v):
     off = tex_offset[m, k]
     if off < 0:
         return False, (0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    if wrap[m, 2]:  # Material.nearest
+        return True, nearest(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
     return True, bilinear(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
 
 

@@ -41,7 +41,8 @@ class DeviceScene:
         materials = np.zeros((len(a.base_color), 24), np.float32)  # common.slang: Material
         materials[:, 0:3], materials[:, 3] = a.base_color, a.base_alpha
         materials[:, 4:7], materials[:, 7] = a.emissive, a.roughness
-        materials[:, 8], materials[:, 9], materials[:, 10:12] = a.metallic, a.alpha_cutoff, a.wrap
+        materials[:, 8], materials[:, 9] = a.metallic, a.alpha_cutoff
+        materials[:, 10:12] = a.wrap[:, :2] + 3 * a.wrap[:, 2:]  # wrap modes, + 3 where read at the nearest texel
         materials[:, 12:16], materials[:, 16:20], materials[:, 20:24] = a.tex_offset, a.tex_w, a.tex_h
         self.materials = buffer(materials)
         self.texels = buffer(a.tex_data)

@@ -167,6 +167,11 @@ class _Reader:
         sampler = self.doc["textures"][index].get("sampler")
         return wrap_modes(self.doc["samplers"][sampler] if sampler is not None else {})
 
+    def nearest(self, index: int) -> bool:
+        """Whether texture `index`'s sampler magnifies by the nearest texel (magFilter NEAREST)."""
+        sampler = self.doc["textures"][index].get("sampler")
+        return sampler is not None and self.doc["samplers"][sampler].get("magFilter") == 9728
+
     def texture(self, index: int, srgb: bool = True, alpha: bool = False) -> np.ndarray | None:
         """A texture as float32 in [0, 1] (colour decoded from sRGB when `srgb`; RGBA when
         `alpha`), or None (with a warning naming the file) if it cannot be read or decoded:

@@ -84,8 +84,10 @@ def read_material(reader, k: int, m: dict) -> tuple[Material, UvRule]:
     if base is not None:
         mat.texture = base  # multiplied with base_color where sampled (Material.texture)
         mat.wrap = reader.wrap(refs["baseColorTexture"]["index"])
+        mat.nearest = reader.nearest(refs["baseColorTexture"]["index"])
     elif present:
         mat.wrap = reader.wrap(refs[present[0]]["index"])
+        mat.nearest = reader.nearest(refs[present[0]]["index"])
     mr, occ = tex("metallicRoughnessTexture", False), tex("occlusionTexture", False)
     if mr is not None or occ is not None:
         shape = max((t.shape[:2] for t in (mr, occ) if t is not None), key=lambda s: s[0] * s[1])
@@ -106,6 +108,9 @@ def read_material(reader, k: int, m: dict) -> tuple[Material, UvRule]:
     if glow is not None:
         mat.emissive_map = (glow * emissive).astype(np.float32)
     return mat, rule
+
+
+NEAREST = (9728, 9984, 9986)  # glTF's NEAREST, NEAREST_MIPMAP_NEAREST, NEAREST_MIPMAP_LINEAR
 
 
 def wrap_modes(sampler: dict) -> tuple:
