@@ -228,3 +228,20 @@ def ggx_quads_document():
     half = -np.arctan2(2.5, 3.5) / 2  # looking down at the quads
     return textured_scene(materials, [], quads, lights, ((0, 2.5, 3.5), (float(np.sin(half)), 0, 0,
                                                                           float(np.cos(half))), 0.9))
+
+
+GRID_METALLIC, GRID_ROUGHNESS = (0.0, 0.5, 1.0), (0.3, 0.55, 0.8)
+
+
+def ggx_grid_document():
+    """A 3 x 3 grid of orange spheres, metallic 0, 0.5, 1 (rows, top to bottom) x roughness 0.3,
+    0.55, 0.8 (columns), under one point light: the scene of the Mitsuba references with glTF's
+    BRDF written as a Mitsuba plugin (tests/refs/make_mitsuba_refs.py)."""
+    materials, meshes = [], []
+    for i, metal in enumerate(GRID_METALLIC):
+        for j, rough in enumerate(GRID_ROUGHNESS):
+            materials.append({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.45, 0.15, 1],
+                                                       "metallicFactor": metal, "roughnessFactor": rough}})
+            meshes.append((*uv_sphere(((j - 1) * 1.1, (1 - i) * 1.1, 0.0), 0.5, 48, 24), len(materials) - 1))
+    lights = [{"type": "point", "intensity": 30.0, "color": [1, 1, 1], "node": {"translation": [1.5, 2.0, 3.0]}}]
+    return mesh_scene(meshes, materials, lights, ((0.0, 0.0, 5.2), (0.0, 0.0, 0.0, 1.0), 0.75))

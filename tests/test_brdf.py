@@ -1,7 +1,8 @@
 """glTF's metal-rough BRDF (option brdf; docs/ARCHITECTURE.md "Materials") in every renderer:
-closed-form direct light on coloured dielectric and metal floors, and Mitsuba 3's renders of
-white GGX metal spheres (tests/refs/make_mitsuba_refs.py), on the raster path, Embree and
-Vulkan (lavapipe); built-in scenes keep the study's Lambert model."""
+closed-form direct light on coloured dielectric and metal floors; Mitsuba 3's renders
+(tests/refs/make_mitsuba_refs.py) of white GGX metal spheres (its roughconductor) and of a
+metallic x roughness grid of spheres (glTF's BRDF as a Mitsuba plugin); on the raster path,
+Embree and Vulkan (lavapipe); built-in scenes keep the study's Lambert model."""
 import json
 import warnings
 
@@ -11,7 +12,7 @@ import pytest
 from app.camera import Camera
 from scenes.builtin import build_builtin
 from scenes.loaders import load_scene
-from tests.gltf_writer import ggx_quads_document, ggx_spheres_document, textured_scene
+from tests.gltf_writer import ggx_grid_document, ggx_quads_document, ggx_spheres_document, textured_scene
 from tests.test_rt import run
 
 REFS = __import__("pathlib").Path(__file__).parent / "refs"
@@ -115,6 +116,31 @@ def test_reference_matches_mitsuba_path_tracer(gl, tmp_path, sets, frames):
     rel = np.abs(got[keep] - ref[keep]) / ref[keep]
     assert got[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.02)
     assert np.median(rel) < 0.03, np.median(rel)
+
+
+@pytest.mark.parametrize("pass_name,sets", [("forward", ()), ("shadows", ()), ("shadows", ("tracer=vulkan",))])
+def test_sphere_grid_matches_mitsuba_with_the_gltf_brdf(gl, tmp_path, pass_name, sets):
+    """Orange spheres, metallic 0 / 0.5 / 1 x roughness 0.3 / 0.55 / 0.8, under a point light:
+    direct light against Mitsuba 3 rendering glTF's BRDF as a plugin (its own GGX and Smith G)."""
+    scene = _load(tmp_path, ggx_grid_document())
+    ref, keep = _mitsuba("ggx_grid_direct")
+    got = run(gl, scene, pass_name, size=(96, 96), sets=("env=black",) + sets)
+    assert keep.sum() > 400
+    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
+    assert np.median(rel) < 0.02 and np.percentile(rel, 90) < 0.06, (np.median(rel), np.percentile(rel, 90))
+
+
+@pytest.mark.parametrize("sets,frames", [((), 256), (("tracer=vulkan",), 64)])
+def test_sphere_grid_reference_matches_mitsuba(gl, tmp_path, sets, frames):
+    """The reference path tracer's lobe choice and weights on dielectric, half-metal and metal
+    spheres: point light and a constant sky, 2 bounces, against Mitsuba's path tracer."""
+    scene = _load(tmp_path, ggx_grid_document())
+    ref, keep = _mitsuba("ggx_grid_env")
+    got = run(gl, scene, "reference", frames=frames, size=(96, 96),
+              sets=("env=0.5,0.5,0.5", "reference.max_bounces=2", "reference.rr_start=8") + sets)
+    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
+    assert got[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.02)
+    assert np.median(rel) < 0.04, np.median(rel)
 
 
 def test_builtin_scenes_keep_the_study_model_unless_asked(gl):

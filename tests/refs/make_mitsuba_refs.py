@@ -19,15 +19,100 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-WIDTH, HEIGHT = 128, 64
+SIZES = {"spheres": (128, 64), "grid": (96, 96)}  # width, height
 CASES = {
-    # name: (environment radiance, Mitsuba max_depth, samples per pixel)
-    "ggx_spheres_direct": (0.0, 2, 1024),  # the point light alone, no interreflection: direct light
-    "ggx_spheres_env": (0.5, 4, 4096),  # and a constant environment, 3 bounces: rtlab reference.max_bounces=3
+    # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, glTF's BRDF as a plugin)
+    "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, False),  # the point light alone: direct light
+    "ggx_spheres_env": ("spheres", 0.5, 4, 4096, False),  # and a constant sky, 3 bounces (reference.max_bounces=3)
+    "ggx_grid_direct": ("grid", 0.0, 2, 256, True),
+    "ggx_grid_env": ("grid", 0.5, 3, 1024, True),  # 2 bounces (reference.max_bounces=2)
 }
 
 
-def mitsuba_scene(scene, env: float, max_depth: int, spp: int) -> dict:
+def gltf_bsdf_class():
+    """glTF's metal-rough BRDF as a Mitsuba BSDF plugin written here (the spec's formulas, with
+    Mitsuba's own GGX distribution and separable Smith G): Lambert c_diff (1 - F) / pi + F D G /
+    (4 n.v n.l), F Schlick's with F0 = mix(0.04, base, metallic), alpha = roughness^2. Sampled
+    as a mixture of the cosine lobe and Mitsuba's visible-normal sampling of D."""
+    import drjit as dr
+    import mitsuba as mi
+
+    class GltfBSDF(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.base = mi.Color3f(props["base"])
+            self.metallic = float(props["metallic"])
+            self.distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, max(float(props["roughness"]) ** 2, 1e-3),
+                                                   True)
+            self.m_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
+            self.m_components = [self.m_flags]
+
+        def _f0(self):
+            return 0.04 * (1.0 - self.metallic) + self.base * self.metallic
+
+        def _p_spec(self, cos_v):
+            f = self._f0() + (1.0 - self._f0()) * (1.0 - cos_v) ** 5
+            spec = mi.luminance(f)
+            diff = mi.luminance(self.base * (1.0 - self.metallic) * (1.0 - f))
+            return 1.0 if spec + diff <= 0 else spec / (spec + diff)
+
+        def _eval(self, wi, wo):
+            if wi.z <= 0 or wo.z <= 0:
+                return mi.Color3f(0.0)
+            h = mi.Vector3f(wi + wo)
+            h = h / mi.Float(dr.norm(h))
+            vh = max(min(dr.dot(wi, h), 1.0), 0.0)
+            f = self._f0() + (1.0 - self._f0()) * (1.0 - vh) ** 5
+            spec = f * (self.distr.eval(h) * self.distr.G(wi, wo, h) / (4.0 * wi.z * wo.z))
+            diff = self.base * (1.0 - self.metallic) * (1.0 - f) / dr.pi
+            return (diff + spec) * wo.z
+
+        def _pdf(self, wi, wo):
+            if wi.z <= 0 or wo.z <= 0:
+                return 0.0
+            h = mi.Vector3f(wi + wo)
+            h = h / mi.Float(dr.norm(h))
+            p = self._p_spec(wi.z)
+            spec = self.distr.pdf(wi, h) / (4.0 * abs(dr.dot(wo, h)))
+            return p * spec + (1.0 - p) * wo.z / dr.pi
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wi = si.wi
+            bs = mi.BSDFSample3f()
+            if wi.z <= 0:
+                return bs, mi.Color3f(0.0)
+            if sample1 < self._p_spec(wi.z):
+                m, _ = self.distr.sample(wi, sample2)
+                wo = 2.0 * dr.dot(wi, m) * m - wi
+                bs.sampled_type = int(mi.BSDFFlags.GlossyReflection)
+            else:
+                wo = mi.warp.square_to_cosine_hemisphere(sample2)
+                bs.sampled_type = int(mi.BSDFFlags.DiffuseReflection)
+            bs.wo, bs.eta, bs.sampled_component = wo, 1.0, 0
+            bs.pdf = self._pdf(wi, wo)
+            if bs.pdf <= 0:
+                return bs, mi.Color3f(0.0)
+            return bs, self._eval(wi, wo) / bs.pdf
+
+        def eval(self, ctx, si, wo, active=True):
+            return self._eval(si.wi, wo)
+
+        def pdf(self, ctx, si, wo, active=True):
+            return self._pdf(si.wi, wo)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            return self._eval(si.wi, wo), self._pdf(si.wi, wo)
+
+        def traverse(self, callback):
+            pass
+
+        def to_string(self):
+            return "GltfBSDF"
+
+    return GltfBSDF
+
+
+def mitsuba_scene(scene, env: float, max_depth: int, spp: int, gltf: bool, size: tuple) -> dict:
     import mitsuba as mi
 
     view = scene.default_view()
@@ -43,15 +128,20 @@ def mitsuba_scene(scene, env: float, max_depth: int, spp: int) -> dict:
         params["vertex_normals"] = scene.normals[used].ravel()
         params["faces"] = remap[tris].astype(np.uint32).ravel()
         params.update()
-        mesh.set_bsdf(mi.load_dict({"type": "roughconductor", "material": "none", "distribution": "ggx",
-                                    "alpha": float(mat.roughness) ** 2}))
+        if gltf:
+            bsdf = {"type": "gltf", "base": mi.ScalarColor3f(*mat.base_color[:3]), "metallic": float(mat.metallic),
+                    "roughness": float(mat.roughness)}
+        else:
+            bsdf = {"type": "roughconductor", "material": "none", "distribution": "ggx",
+                    "alpha": float(mat.roughness) ** 2}
+        mesh.set_bsdf(mi.load_dict(bsdf))
         shapes[f"m{k}"] = mesh
     light = scene.lights[0]
     d = {"type": "scene", "integrator": {"type": "path", "max_depth": max_depth},
          "sensor": {"type": "perspective", "fov": float(view.fov), "fov_axis": "y",
                     "to_world": mi.ScalarTransform4f().look_at(origin=list(view.eye), target=list(view.target),
                                                                up=list(view.up)),
-                    "film": {"type": "hdrfilm", "width": WIDTH, "height": HEIGHT, "rfilter": {"type": "box"},
+                    "film": {"type": "hdrfilm", "width": size[0], "height": size[1], "rfilter": {"type": "box"},
                              "pixel_format": "rgb"},
                     "sampler": {"type": "independent", "sample_count": spp}},
          "light": {"type": "point", "position": list(light.position),
@@ -67,14 +157,22 @@ def main() -> int:
 
     mi.set_variant("scalar_rgb")
     from scenes.loaders import load_scene
-    from tests.gltf_writer import ggx_spheres_document, write_gltf
+    from tests.gltf_writer import ggx_grid_document, ggx_spheres_document, write_gltf
 
+    GltfBSDF = gltf_bsdf_class()
+    mi.register_bsdf("gltf", lambda props: GltfBSDF(props))
+    scenes = {}
     with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "spheres.gltf"
-        write_gltf(path, ggx_spheres_document())
-        scene = load_scene(str(path))
-    for name, (env, depth, spp) in CASES.items():
-        image = np.asarray(mi.render(mi.load_dict(mitsuba_scene(scene, env, depth, spp))), np.float32)[..., :3]
+        for key, doc in (("spheres", ggx_spheres_document()), ("grid", ggx_grid_document())):
+            path = Path(folder) / f"{key}.gltf"
+            write_gltf(path, doc)
+            scenes[key] = load_scene(str(path))
+    only = sys.argv[1:]
+    for name, (key, env, depth, spp, gltf) in CASES.items():
+        if only and name not in only:
+            continue
+        d = mitsuba_scene(scenes[key], env, depth, spp, gltf, SIZES[key])
+        image = np.asarray(mi.render(mi.load_dict(d)), np.float32)[..., :3]
         out = ROOT / "tests" / "refs" / f"{name}.npy"
         np.save(out, image.astype(np.float16))
         print(f"{out.relative_to(ROOT)}: {image.shape}, mean {image.mean():.4f}")
