@@ -177,7 +177,7 @@ def _dot(a, b):
     return np.einsum("ij,ij->i", a, b)
 
 
-def _unit(a):
+def unit(a):
     return a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-20)
 
 
@@ -195,10 +195,10 @@ def sample_visible_normal(n: np.ndarray, v: np.ndarray, a: np.ndarray, u: np.nda
     """GGX microfacet normals drawn with probability ~ their visible area from v (Heitz 2018,
     "Sampling the GGX Distribution of Visible Normals"), about unit normals n; u: (N, 2) uniforms."""
     e = np.where(np.abs(n[:, :1]) > 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
-    t = _unit(e - n * _dot(e, n)[:, None])
+    t = unit(e - n * _dot(e, n)[:, None])
     b = np.cross(n, t)
     vl = np.stack([_dot(v, t), _dot(v, b), np.maximum(_dot(v, n), float(MIN_COS))], axis=1)
-    vh = _unit(np.stack([a * vl[:, 0], a * vl[:, 1], vl[:, 2]], axis=1))
+    vh = unit(np.stack([a * vl[:, 0], a * vl[:, 1], vl[:, 2]], axis=1))
     lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
     inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-30)), 0.0)
     t1 = np.where((lensq > 0)[:, None], np.stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros_like(inv)], 1),
@@ -209,5 +209,5 @@ def sample_visible_normal(n: np.ndarray, v: np.ndarray, a: np.ndarray, u: np.nda
     s = 0.5 * (1.0 + vh[:, 2])
     p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
     nh = p1[:, None] * t1 + p2[:, None] * t2 + np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))[:, None] * vh
-    m = _unit(np.stack([a * nh[:, 0], a * nh[:, 1], np.maximum(nh[:, 2], 0.0)], axis=1))
+    m = unit(np.stack([a * nh[:, 0], a * nh[:, 1], np.maximum(nh[:, 2], 0.0)], axis=1))
     return m[:, :1] * t + m[:, 1:2] * b + m[:, 2:] * n

@@ -11,8 +11,6 @@ from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
 from rt.embree.kernels import environment_rgb, environment_terms, uniform
 from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
 
-INV_PI = np.float32(1 / np.pi)
-
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def split_hits(prim, m, dirs, owner, out, env_kind, env_color, horizon, zenith, ground, sel):

@@ -1,10 +1,12 @@
 """Reference path tracer: the ground truth for quality metrics.
 
-Multi-bounce, diffuse + mirror-like specular consistent with the passes: surfaces smoother
-than `reflections.roughness_threshold` reflect with Schlick's Fresnel probability and are
-diffuse otherwise; next-event estimation (one light sample + shadow ray) at diffuse vertices;
-emission counted at the camera and after mirror bounces (where NEE cannot reach); Russian
-roulette after `reference.rr_start` bounces."""
+Multi-bounce, with the scene's surface model (option brdf). The study's (trace_paths): diffuse
++ mirror-like specular consistent with the passes: surfaces smoother than
+`reflections.roughness_threshold` reflect with Schlick's Fresnel probability and are diffuse
+otherwise; next-event estimation (one light sample + shadow ray) at diffuse vertices; emission
+counted at the camera and after mirror bounces (where NEE cannot reach). glTF's
+(trace_paths_ggx): GGX and Lambert lobes, below. Russian roulette after `reference.rr_start`
+bounces."""
 from __future__ import annotations
 
 import numpy as np
@@ -62,10 +64,9 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
     after it counting), then the next direction from one lobe, picked with probability ~ its
     estimated weight: GGX's visible normals (weight F G1(l)) or cosine-weighted (weight
     c_diff (1 - F)). Random dimensions as trace_paths: lobe, light (4), direction (2), roulette."""
-    n = len(s)
     radiance = s.emissive.copy()
-    beta = np.ones((n, 3), np.float32)
-    alive = np.arange(n)
+    beta = np.ones((len(s), 3), np.float32)
+    alive = np.arange(len(s))
     d_in = view
     for bounce in range(max_bounces + 1):
         n, v = len(s), -d_in
@@ -97,7 +98,7 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
         vm = np.einsum("ij,ij->i", v, m)
         mirrored = (2 * vm[:, None] * m - v).astype(np.float32)
         d = np.where(spec[:, None], mirrored, cosine).astype(np.float32)
-        h = brdf._unit(v + d)
+        h = brdf.unit(v + d)
         f_vh = brdf.schlick(f0, np.einsum("ij,ij->i", v, h))
         g1_l = brdf.smith_g1(np.einsum("ij,ij->i", s.n, d), a)
         weight_spec = brdf.schlick(f0, vm) * g1_l[:, None] / np.maximum(p_spec, 1e-6)[:, None]
