@@ -161,6 +161,8 @@ def run_bench(args) -> int:
         raise UserError("--frames must be at least 1")
     if args.seconds is not None and args.seconds <= 0:
         raise UserError("--seconds must be positive")
+    if not args.reference_noise > 0:
+        raise UserError("--reference-noise must be positive (a mean FLIP, e.g. 0.01)")
     frames = args.frames if args.frames is not None else (2 if args.quick else None)
     seconds = args.seconds if args.seconds is not None else 5.0
     warmup = 1 if args.quick else 2
@@ -203,8 +205,9 @@ def run_bench(args) -> int:
         for r in rows:
             r["relative_cost"] = r["frame_ms"]["mean"] / base
         if quality_configs:
-            measure_quality(renderer, camera, quality_size, scene.name, rows, quality_configs, ref_frames,
-                            acc_frames, out / "images", progress, common)
+            scene_info[scene.name]["reference"] = measure_quality(
+                renderer, camera, quality_size, scene.name, rows, quality_configs, ref_frames, acc_frames,
+                out / "images", progress, common, args.reference_noise)
         renderer.release()
         results += rows
     from app.recommend import recommend
@@ -212,6 +215,7 @@ def run_bench(args) -> int:
     doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"),
            "settings": {"size": list(size), "frames": frames, "seconds": None if frames else seconds, "warmup": warmup,
                         "quality_size": list(quality_size), "reference_frames": ref_frames,
+                        "reference_noise": args.reference_noise,
                         "quality_frames": acc_frames, "quality": bool(quality_configs), "budget_ms": args.budget_ms,
                         "options": list(common)},
            "tracer": tracer,
@@ -226,11 +230,54 @@ def run_bench(args) -> int:
     return 0
 
 
+def converge_reference(renderer, camera, size, max_frames: int, target: float, base: tuple = ()):
+    """The reference path tracer accumulated in doubling rounds until its own noise is below
+    `target` or max_frames are spent: after each round the mean of its first half of frames and
+    the mean of its second (2 x all - first: independent numbers, frame indices differ) are
+    compared, FLIP and RMSE of the displayed images. Returns (the displayed reference of every
+    frame so far, {frames, half_frames, half_flip, half_rmse, target_flip, reached})."""
+    from app.quality import mean_flip, rmse, to_display
+
+    opts = Options()
+    opts.apply(list(base) + ["accumulate=true"])
+    renderer.options, renderer.seed = opts, 1
+    renderer.reset()
+    exposure = float(opts.get("exposure"))
+    done, first = 0, None
+    half = max(1, min(max_frames // 8, 32))
+    info = {}
+    while True:
+        while done < half:
+            renderer.render(camera, *size, "reference")
+            done += 1
+        if first is None:  # the first half of the next comparison
+            first = renderer.read_linear().copy()
+        while done < 2 * half:
+            renderer.render(camera, *size, "reference")
+            done += 1
+        everything = renderer.read_linear().copy()
+        a, b = to_display(first, exposure), to_display(2.0 * everything - first, exposure)
+        info = {"frames": done, "half_frames": half, "half_flip": mean_flip(a, b), "half_rmse": rmse(a, b),
+                "target_flip": target}
+        if info["half_flip"] <= target or 4 * half > max_frames:
+            break
+        first, half = everything, 2 * half
+    info["reached"] = info["half_flip"] <= target
+    return renderer.read_display(), info
+
+
 def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frames, acc_frames, images, progress,
-                    base: tuple = ()):
-    ref = render_image(renderer, camera, size, "reference", [], ref_frames, seed=1, base=base)
+                    base: tuple = (), ref_noise: float = 0.01) -> dict:
+    """Each configuration's quality into its rows; returns the reference's own noise
+    (converge_reference)."""
+    ref, noise = converge_reference(renderer, camera, size, ref_frames, ref_noise, base)
     write_png(images / f"{scene_name}_reference.png", ref)
-    progress.update(2, f"{scene_name} reference ({ref_frames} frames)")
+    if not noise["reached"]:
+        print(f"bench: warning: {scene_name}'s reference still differs from itself by FLIP {noise['half_flip']:.4f} "
+              f"between two halves of {noise['half_frames']} frames (target {ref_noise}; --reference-frames "
+              f"{ref_frames} spent): its quality figures carry that noise", file=sys.stderr)
+    progress.update(2, f"{scene_name} reference ({noise['frames']} frames, FLIP {noise['half_flip']:.4f} "
+                       "between halves)")
     from app.quality import mean_flip, psnr
 
     fwd = render_image(renderer, camera, size, "forward", [], 1, base=base)
@@ -256,6 +303,7 @@ def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frame
             if r["config"].partition("+")[0] == config:
                 r["quality"] = q
         progress.update(1, f"{scene_name} {config} quality: FLIP {q['flip_accumulated']:.3f}")
+    return noise
 
 
 def write_results(out: Path, doc: dict) -> None:

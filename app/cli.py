@@ -64,7 +64,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--frames", type=int, help="timed frames per configuration (instead of --seconds)")
     s.add_argument("--camera", help="a named view or camera string (default: each scene's first view)")
     s.add_argument("--quality-size", help="resolution of the quality measurement (default: a quarter of --size)")
-    s.add_argument("--reference-frames", type=int, help="frames of the converged reference (default 256)")
+    s.add_argument("--reference-frames", type=int, help="most frames of the converged reference (default 256)")
+    s.add_argument("--reference-noise", type=float, default=0.01,
+                   help="the reference accumulates until two halves of it differ by at most this mean FLIP "
+                        "(default 0.01) or --reference-frames are spent")
     s.add_argument("--quality-frames", type=int, help="accumulated frames for the bias measurement (default 32)")
     s.add_argument("--no-quality", action="store_true", help="time only (no reference, FLIP, PSNR)")
     s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")

@@ -5,6 +5,19 @@ from __future__ import annotations
 import numpy as np
 
 
+def to_display(linear: np.ndarray, exposure: float = 1.0) -> np.ndarray:
+    """A linear image as the display shows it (shaders/tonemap.frag: exposure, ACES, sRGB), 8-bit."""
+    x = np.maximum(linear.astype(np.float64), 0.0) * exposure
+    c = np.clip((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
+    c = np.where(c <= 0.0031308, c * 12.92, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
+    return np.round(np.clip(c, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def rmse(a: np.ndarray, b: np.ndarray) -> float:
+    """Root-mean-square difference of two 8-bit images, in [0, 1] units."""
+    return float(np.sqrt(np.mean((a.astype(np.float64) / 255.0 - b.astype(np.float64) / 255.0) ** 2)))
+
+
 def psnr(reference: np.ndarray, test: np.ndarray) -> float:
     a = reference.astype(np.float64) / 255.0
     b = test.astype(np.float64) / 255.0

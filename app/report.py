@@ -82,6 +82,18 @@ def quality_rows(doc: dict) -> list[list[str]]:
     return rows
 
 
+def reference_noise_lines(doc: dict) -> list[str]:
+    """Each scene's reference noise (bench.converge_reference), when the results have it."""
+    lines = []
+    for name, info in doc.get("scenes", {}).items():
+        r = info.get("reference")
+        if r:
+            verdict = "reached" if r["reached"] else "**not reached**"
+            lines.append(f"- {name}: {r['frames']} frames; two halves of {r['half_frames']} differ by FLIP "
+                         f"{r['half_flip']:.4f}, RMSE {r['half_rmse']:.4f} (target FLIP {r['target_flip']}: {verdict})")
+    return ["The references' own noise:", ""] + lines + [""] if lines else []
+
+
 def recommendation_rows(doc: dict, budget_ms) -> list[list[str]]:
     rows = []
     for scene in doc["scenes"]:
@@ -219,7 +231,7 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     qh = ["scene", "config", "FLIP 1 frame", "FLIP accumulated", "PSNR 1 frame", "PSNR accumulated",
           "gain vs forward"]
     if qrows:
-        md += ["## Quality against the reference", ""] + _table(qh, qrows) + [""]
+        md += ["## Quality against the reference", ""] + _table(qh, qrows) + [""] + reference_noise_lines(doc)
         rh = ["scene", "measured recommendation", "why", "study archetype", "study's recommendation"]
         rrows = recommendation_rows(doc, budget_ms)
         md += ["## Recommendations", "", f"Rule: {rule_text(budget_ms)}", ""] + _table(rh, rrows) + [""]

@@ -37,6 +37,11 @@ def test_quick_bench_writes_every_configuration(quick_bench):
             assert 0 <= q["flip_accumulated"] <= 1 and q["psnr_single"] > 0
         assert rows["forward"]["relative_cost"] == pytest.approx(1.0)
     assert set(doc["recommendations"]) == {"arcade", "cafe"}
+    for scene in ("arcade", "cafe"):  # the references' own noise, measured (16 frames at most with --quick)
+        ref = doc["scenes"][scene]["reference"]
+        assert ref["frames"] <= 16 and ref["frames"] == 2 * ref["half_frames"] and 0 <= ref["half_flip"] <= 1
+        assert ref["reached"] == (ref["half_flip"] <= ref["target_flip"])
+    assert "The references' own noise" in (quick_bench / "report.md").read_text()
     with open(quick_bench / "results.csv") as f:
         assert len(list(csv.DictReader(f))) == 2 * len(ALL_CONFIGS)
     assert "Recommendations" in (quick_bench / "report.md").read_text()
@@ -124,3 +129,27 @@ def test_perf_measures_every_pass_thread_count_and_bvh(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--perf", "--quick", "--perf-rounds", "0", "--out",
                           str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert bad.returncode != 0 and "--perf-rounds" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_reference_accumulates_until_its_halves_agree(gl):
+    """bench.converge_reference: a noise-free reference (a plane under a point light: direct
+    light only, no sky) stops after its first round with halves identical; a noisy one (the
+    arcade, a tiny target) spends every frame and says it did not reach the target."""
+    from app.bench import converge_reference
+    from app.camera import Camera
+    from app.options import Options
+    from app.renderer import Renderer
+    from scenes.builtin import build_builtin
+    from tests.scenes_for_tests import lit_plane
+
+    calm = lit_plane((0.5, 0.5, 0.5), (0.0, 2.0, 0.0), 10.0)
+    r = Renderer(gl, calm, Options())
+    _, info = converge_reference(r, Camera.from_view(calm.default_view(), calm.diagonal), (48, 32), 64, 0.01,
+                                 ("env=black",))  # bounces escape to the black sky
+    r.release()
+    assert info["reached"] and info["half_flip"] < 1e-6 and info["frames"] == 16
+    arcade = build_builtin("arcade")
+    r = Renderer(gl, arcade, Options())
+    _, info = converge_reference(r, Camera.from_view(arcade.default_view(), arcade.diagonal), (48, 32), 32, 1e-6)
+    r.release()
+    assert not info["reached"] and info["frames"] == 32 and info["half_frames"] == 16 and info["half_flip"] > 0.01
