@@ -93,54 +93,40 @@ def _mitsuba(name):
     return ref, covered & (ref.mean(-1) > 0.01)
 
 
+# the Mitsuba scenes: their document, image size, the reference's bounces and its median bound
+# (tests/refs/make_mitsuba_refs.py): white GGX metal spheres of roughness 0.25, 0.5, 0.8 against
+# Mitsuba's roughconductor; orange spheres, metallic 0 / 0.5 / 1 x roughness 0.3 / 0.55 / 0.8,
+# against Mitsuba rendering glTF's BRDF as a plugin (its own GGX and Smith G)
+MITSUBA_SCENES = {"ggx_spheres": (ggx_spheres_document, (128, 64), 3, 0.03),
+                  "ggx_grid": (ggx_grid_document, (96, 96), 2, 0.04)}
+
+
+@pytest.mark.parametrize("name", list(MITSUBA_SCENES))
 @pytest.mark.parametrize("pass_name,sets", [("forward", ()), ("shadows", ()), ("shadows", ("tracer=vulkan",))])
-def test_rough_metal_spheres_match_mitsuba(gl, tmp_path, pass_name, sets):
-    """Direct light from a point light on GGX spheres of roughness 0.25, 0.5, 0.8: D, G and the
-    alpha mapping against Mitsuba 3's roughconductor."""
-    scene = _load(tmp_path, ggx_spheres_document())
-    ref, keep = _mitsuba("ggx_spheres_direct")
-    got = run(gl, scene, pass_name, size=(128, 64), sets=("env=black",) + sets)
+def test_direct_light_matches_mitsuba(gl, tmp_path, name, pass_name, sets):
+    """Direct light from a point light: D, G, Fresnel and the alpha mapping."""
+    document, size, _, _ = MITSUBA_SCENES[name]
+    scene = _load(tmp_path, document())
+    ref, keep = _mitsuba(f"{name}_direct")
+    got = run(gl, scene, pass_name, size=size, sets=("env=black",) + sets)
     assert keep.sum() > 400
     rel = np.abs(got[keep] - ref[keep]) / ref[keep]
     assert np.median(rel) < 0.02 and np.percentile(rel, 90) < 0.06, (np.median(rel), np.percentile(rel, 90))
 
 
+@pytest.mark.parametrize("name", list(MITSUBA_SCENES))
 @pytest.mark.parametrize("sets,frames", [((), 256), (("tracer=vulkan",), 64)])
-def test_reference_matches_mitsuba_path_tracer(gl, tmp_path, sets, frames):
-    """The reference path tracer samples GGX's visible normals: the spheres under a point light
-    and a constant sky, 3 bounces, against Mitsuba's path tracer."""
-    scene = _load(tmp_path, ggx_spheres_document())
-    ref, keep = _mitsuba("ggx_spheres_env")
-    got = run(gl, scene, "reference", frames=frames, size=(128, 64),
-              sets=("env=0.5,0.5,0.5", "reference.max_bounces=3", "reference.rr_start=8") + sets)
+def test_reference_matches_mitsuba_path_tracer(gl, tmp_path, name, sets, frames):
+    """The reference path tracer's lobe choice and weights (GGX's visible normals, the cosine
+    lobe) under a point light and a constant sky, against Mitsuba's path tracer."""
+    document, size, bounces, bound = MITSUBA_SCENES[name]
+    scene = _load(tmp_path, document())
+    ref, keep = _mitsuba(f"{name}_env")
+    got = run(gl, scene, "reference", frames=frames, size=size,
+              sets=("env=0.5,0.5,0.5", f"reference.max_bounces={bounces}", "reference.rr_start=8") + sets)
     rel = np.abs(got[keep] - ref[keep]) / ref[keep]
     assert got[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.02)
-    assert np.median(rel) < 0.03, np.median(rel)
-
-
-@pytest.mark.parametrize("pass_name,sets", [("forward", ()), ("shadows", ()), ("shadows", ("tracer=vulkan",))])
-def test_sphere_grid_matches_mitsuba_with_the_gltf_brdf(gl, tmp_path, pass_name, sets):
-    """Orange spheres, metallic 0 / 0.5 / 1 x roughness 0.3 / 0.55 / 0.8, under a point light:
-    direct light against Mitsuba 3 rendering glTF's BRDF as a plugin (its own GGX and Smith G)."""
-    scene = _load(tmp_path, ggx_grid_document())
-    ref, keep = _mitsuba("ggx_grid_direct")
-    got = run(gl, scene, pass_name, size=(96, 96), sets=("env=black",) + sets)
-    assert keep.sum() > 400
-    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
-    assert np.median(rel) < 0.02 and np.percentile(rel, 90) < 0.06, (np.median(rel), np.percentile(rel, 90))
-
-
-@pytest.mark.parametrize("sets,frames", [((), 256), (("tracer=vulkan",), 64)])
-def test_sphere_grid_reference_matches_mitsuba(gl, tmp_path, sets, frames):
-    """The reference path tracer's lobe choice and weights on dielectric, half-metal and metal
-    spheres: point light and a constant sky, 2 bounces, against Mitsuba's path tracer."""
-    scene = _load(tmp_path, ggx_grid_document())
-    ref, keep = _mitsuba("ggx_grid_env")
-    got = run(gl, scene, "reference", frames=frames, size=(96, 96),
-              sets=("env=0.5,0.5,0.5", "reference.max_bounces=2", "reference.rr_start=8") + sets)
-    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
-    assert got[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.02)
-    assert np.median(rel) < 0.04, np.median(rel)
+    assert np.median(rel) < bound, np.median(rel)
 
 
 def test_builtin_scenes_keep_the_study_model_unless_asked(gl):

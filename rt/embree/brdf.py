@@ -173,10 +173,6 @@ def g1(c, a):
 
 
 # ---- whole arrays (the reference path tracer, rt/embree/reference.py) -------------------------
-def _dot(a, b):
-    return np.einsum("ij,ij->i", a, b)
-
-
 def unit(a):
     return a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-20)
 
@@ -191,23 +187,10 @@ def smith_g1(cos: np.ndarray, a: np.ndarray) -> np.ndarray:
     return 2.0 * cos / (cos + np.sqrt(a * a + (1.0 - a * a) * cos * cos))
 
 
-def sample_visible_normal(n: np.ndarray, v: np.ndarray, a: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """GGX microfacet normals drawn with probability ~ their visible area from v (Heitz 2018,
-    "Sampling the GGX Distribution of Visible Normals"), about unit normals n; u: (N, 2) uniforms."""
-    e = np.where(np.abs(n[:, :1]) > 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
-    t = unit(e - n * _dot(e, n)[:, None])
-    b = np.cross(n, t)
-    vl = np.stack([_dot(v, t), _dot(v, b), np.maximum(_dot(v, n), float(MIN_COS))], axis=1)
-    vh = unit(np.stack([a * vl[:, 0], a * vl[:, 1], vl[:, 2]], axis=1))
-    lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
-    inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-30)), 0.0)
-    t1 = np.where((lensq > 0)[:, None], np.stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros_like(inv)], 1),
-                  [[1.0, 0.0, 0.0]])
-    t2 = np.cross(vh, t1)
-    r, phi = np.sqrt(u[:, 0]), 2.0 * np.pi * u[:, 1]
-    p1, p2 = r * np.cos(phi), r * np.sin(phi)
-    s = 0.5 * (1.0 + vh[:, 2])
-    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
-    nh = p1[:, None] * t1 + p2[:, None] * t2 + np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))[:, None] * vh
-    m = unit(np.stack([a * nh[:, 0], a * nh[:, 1], np.maximum(nh[:, 2], 0.0)], axis=1))
-    return m[:, :1] * t + m[:, 1:2] * b + m[:, 2:] * n
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def visible_normals(N, V, A, U, out):
+    """out[i] = visible_normal for point i (unit normal N[i], view V[i], alpha A[i], uniforms
+    U[i, 0:2]): the reference path tracer's GGX samples, drawn as the reflections' glossy rays'."""
+    for i in range(N.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = visible_normal(N[i, 0], N[i, 1], N[i, 2], V[i, 0], V[i, 1], V[i, 2], A[i],
+                                                         U[i, 0], U[i, 1])

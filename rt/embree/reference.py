@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rt.embree import brdf
+from rt.embree.kernels import uniforms
 from rt.embree.shading import INV_PI, LUMA, cosine_directions, direct_one, fresnel_schlick, mirror, trace_from
 
 
@@ -41,20 +42,29 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
         d[si] = mirror(d_in[si], s.take(si))
         beta = np.where(spec[:, None], beta * f / np.maximum(p_spec, 1e-6)[:, None], beta * w_diff * s.albedo)
         keep = np.einsum("ij,ij->i", d, s.ng) > 0  # diffuse directions below the true surface carry nothing
-        if bounce + 1 >= rr_start:
-            q = np.clip(beta @ LUMA, 0.05, 0.95)
-            keep &= rng.next(1)[:, 0] < q
-            beta = beta / q[:, None]
-        idx = np.nonzero(keep)[0]
-        hit, sh, miss = trace_from(cf.data, cf.tracer, s.take(idx), d[idx])
-        m = idx[miss]
-        radiance[alive[m]] += beta[m] * cf.environment.radiance(d[m])
-        h = idx[hit]
-        spec_h = spec[h]
-        radiance[alive[h[spec_h]]] += beta[h[spec_h]] * sh.emissive[spec_h]
-        alive, beta, d_in, s = alive[h], beta[h], d[h], sh
-        rng = rng.subset(h)
+        alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, spec, radiance, alive, rng,
+                                                 bounce + 1 >= rr_start)
     return radiance
+
+
+def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: bool):
+    """A path step's end, shared by both surface models: Russian roulette (roulette: one number
+    per point) among the paths kept, their rays along d traced; where they miss, the
+    environment's light times beta goes to their pixels (alive), and where they hit, the hit's
+    emission for paths whose `counts` is set. Returns the paths that go on: (alive, beta,
+    their directions, the surfaces hit, their generators)."""
+    if roulette:
+        q = np.clip(beta @ LUMA, 0.05, 0.95)
+        keep &= rng.next(1)[:, 0] < q
+        beta = beta / q[:, None]
+    idx = np.nonzero(keep)[0]
+    hit, sh, miss = trace_from(cf.data, cf.tracer, s.take(idx), d[idx])
+    m = idx[miss]
+    radiance[alive[m]] += beta[m] * cf.environment.radiance(d[m])
+    h = idx[hit]
+    seen = counts[h]
+    radiance[alive[h[seen]]] += beta[h[seen]] * sh.emissive[seen]
+    return alive[h], beta[h], d[h], sh, rng.subset(h)
 
 
 def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
@@ -92,9 +102,12 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
         if bounce == max_bounces:
             break
         # ---- the next direction from the lobe picked, the throughput, the roulette ----
-        u = rng.next(2)
-        cosine = cosine_directions_u(s.n, u)
-        m = brdf.sample_visible_normal(s.n, v, a, u)
+        dim = rng.dim
+        cosine = cosine_directions(s, rng)  # from dimensions dim, dim + 1; the GGX lobe's from the same
+        u, m = np.empty((n, 2), np.float32), np.empty((n, 3), np.float32)
+        if n:
+            uniforms(rng.key, dim, 2, u)
+            brdf.visible_normals(s.n, np.ascontiguousarray(v, np.float32), a.astype(np.float32), u, m)
         vm = np.einsum("ij,ij->i", v, m)
         mirrored = (2 * vm[:, None] * m - v).astype(np.float32)
         d = np.where(spec[:, None], mirrored, cosine).astype(np.float32)
@@ -106,33 +119,9 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
         beta = (beta * np.where(spec[:, None], weight_spec, weight_diff)).astype(np.float32)
         keep = (np.einsum("ij,ij->i", d, s.ng) > 0) & (np.einsum("ij,ij->i", d, s.n) > 0)
         counts = spec & near_mirror  # emission at the next hit: the near-mirror lobe's, not NEE's
-        if bounce + 1 >= rr_start:
-            q = np.clip(beta @ LUMA, 0.05, 0.95)
-            keep &= rng.next(1)[:, 0] < q
-            beta = beta / q[:, None]
-        idx = np.nonzero(keep)[0]
-        hit, sh, miss = trace_from(cf.data, cf.tracer, s.take(idx), d[idx])
-        mi = idx[miss]
-        radiance[alive[mi]] += beta[mi] * cf.environment.radiance(d[mi])
-        hi = idx[hit]
-        seen = counts[hi]
-        radiance[alive[hi[seen]]] += beta[hi[seen]] * sh.emissive[seen]
-        alive, beta, d_in, s = alive[hi], beta[hi], d[hi], sh
-        rng = rng.subset(hi)
+        alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng,
+                                                 bounce + 1 >= rr_start)
     return radiance
-
-
-def cosine_directions_u(n: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Cosine-weighted directions about unit normals n from uniforms u (N, 2), in the frame of
-    raygen.about (as raygen.cosine_dirs draws them)."""
-    r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
-    x, y, z = r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0, 1 - u[:, 0]))
-    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    k = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * k
-    t = np.stack([1 + sign * n[:, 0] ** 2 * k, sign * b, -sign * n[:, 0]], 1)
-    bt = np.stack([b, sign + n[:, 1] ** 2 * k, -n[:, 1]], 1)
-    return (t * x[:, None] + bt * y[:, None] + n * z[:, None]).astype(np.float32)
 
 
 def trace(rf) -> dict:
