@@ -9,6 +9,7 @@ from numba import njit
 from rt.embree import brdf
 from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
 from rt.embree.kernels import environment_rgb, environment_terms, uniform
+from rt.embree.raygen import offset
 from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
 
 
@@ -162,7 +163,7 @@ def mirror_rays(P, N, NG, V, sel, eps, origin, direction):
             rx, ry, rz = vx - c * NG[i, 0], vy - c * NG[i, 1], vz - c * NG[i, 2]
         direction[k, 0], direction[k, 1], direction[k, 2] = rx, ry, rz
         side = np.float32(-1.0) if NG[i, 0] * rx + NG[i, 1] * ry + NG[i, 2] * rz < 0 else np.float32(1.0)
-        s = side * eps * (np.float32(1.0) + max(abs(P[i, 0]), abs(P[i, 1]), abs(P[i, 2])) * np.float32(1e-3))
+        s = side * offset(eps, P[i, 0], P[i, 1], P[i, 2])
         for a in range(3):
             origin[k, a] = P[i, a] + NG[i, a] * s
 
@@ -208,7 +209,7 @@ def glossy_ray(p, n, ng, view, albedo, metallic, roughness, key, eps, origin, di
     vm = vx * mx + vy * my + vz * mz
     lx, ly, lz = 2 * vm * mx - vx, 2 * vm * my - vy, 2 * vm * mz - vz
     direction[0], direction[1], direction[2] = lx, ly, lz
-    s = eps * (ONE + max(abs(p[0]), abs(p[1]), abs(p[2])) * np.float32(1e-3))
+    s = offset(eps, p[0], p[1], p[2])
     for c in range(3):
         origin[c] = p[c] + ng[c] * s
     nl = n[0] * lx + n[1] * ly + n[2] * lz
