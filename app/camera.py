@@ -87,6 +87,24 @@ class Camera:
         return tuple(np.round(np.concatenate([self.eye, self.target, self.up, [self.fov]]), 7))
 
 
+def radical_inverse(i: int, base: int) -> float:
+    """The van der Corput radical inverse of i in a base: i's digits mirrored behind the point."""
+    value, scale = 0.0, 1.0 / base
+    while i > 0:
+        i, digit = divmod(i, base)
+        value += digit * scale
+        scale /= base
+    return value
+
+
+def subpixel_jitter(index: int) -> tuple[float, float]:
+    """Accumulated frame index's sample point in the pixel, as an offset from its centre in pixels
+    (right, down), each in [-0.5, 0.5): the Halton (2, 3) sequence shifted by half a pixel, so
+    frame 0 samples the centre and N frames stratify the pixel (their average converges to the
+    box-filtered image)."""
+    return tuple((radical_inverse(index, b) + 0.5) % 1.0 - 0.5 for b in (2, 3))
+
+
 def parse_camera(text: str, scene) -> Camera:
     """A named view of the scene, or 'eye=x,y,z;target=x,y,z;up=x,y,z;fov=DEG'."""
     if "=" not in text:

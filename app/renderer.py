@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.camera import Camera
+from app.camera import Camera, subpixel_jitter
 from app.frame import Frame
 from app.graph import active
 from app.options import Options
@@ -17,6 +17,8 @@ from app.raster.gpu_scene import GpuScene
 from app.raster.upload import Uploads, read_rgba
 from core.errors import DeviceError, UserError
 from scenes.model import Environment
+
+JITTERED_STILL_FRAMES = 64  # a still forward view stops re-rendering after this many jittered frames
 
 
 @dataclass
@@ -132,8 +134,19 @@ class Renderer:
     def reset(self) -> None:
         self._state = None
 
+    def jittering(self, pass_name: str) -> bool:
+        """Whether this mode's accumulated frames sample jittered points of their pixels (not the
+        G-buffer's data views, whose values are not light)."""
+        opts = self.options
+        return bool(opts.get("jitter")) and bool(opts.get("accumulate")) and pass_name not in CHANNEL_VIEWS
+
     def deterministic(self, pass_name: str) -> bool:
-        return pass_name == "forward" or pass_name in CHANNEL_VIEWS
+        """Whether another frame of unchanged inputs would look the same: the data views, and the
+        forward mode, which with jitter antialiases over its first JITTERED_STILL_FRAMES frames."""
+        if pass_name in CHANNEL_VIEWS:
+            return True
+        return pass_name == "forward" and (not self.jittering(pass_name)
+                                           or self.accumulation.count >= JITTERED_STILL_FRAMES)
 
     def render(self, camera: Camera, width: int, height: int, pass_name: str = "forward") -> Frame:
         """Render one frame synchronously (prepare on the GL thread, compute, finish)."""
@@ -169,6 +182,8 @@ class Renderer:
         last = names.index(traced[-1]) + 1 if traced else len(names)
         frame = Frame(self.ctx, self.scene, self.gpu, camera, self.prev_camera or camera, width, height, self.options,
                       self.profiler, self.environment(), self.accumulation.count, self.seed, pass_name, backend)
+        if self.jittering(pass_name):
+            frame.jitter = subpixel_jitter(frame.index)
         job = Job(frame, state, pass_name, names[:first], names[first:last], names[last:],
                   wiring(self.passes, names, self.pass_outputs))
         # a device backend's own image ends the frame there: only 8 bits a channel come back

@@ -30,18 +30,21 @@ class FrameInputs:
     seed: int = 0
     index: int = 0  # frames since the last reset: seeds this frame's random numbers
     gbuffer: dict | None = None  # the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), or None
+    jitter: tuple = (0.0, 0.0)  # this frame's subpixel offset of the primary samples (pixels: right, down)
 
-    def motion(self, positions: np.ndarray, pixels: np.ndarray) -> np.ndarray:
-        """(N, 3) motion vectors, in pixels, of the points at `positions` seen in `pixels`: where
-        the last frame's camera saw them to where this frame's pixel centres are (third column 0),
-        as the raster G-buffer's motion channel."""
-        aspect = self.width / max(self.height, 1)
-        prev = self.prev_camera
-        clip = np.c_[positions, np.ones(len(positions))] @ (prev.projection_matrix(aspect) @ prev.view_matrix()).T
+    def motion(self, positions: np.ndarray) -> np.ndarray:
+        """(N, 3) motion vectors, in pixels, of the points at `positions`: where the last frame's
+        camera saw them to where this frame's sees them, both without the subpixel jitter (third
+        column 0), as the raster G-buffer's motion channel."""
+        now, before = (self._pixel_of(positions, cam) for cam in (self.camera, self.prev_camera))
+        return np.c_[now - before, np.zeros(len(positions))]
+
+    def _pixel_of(self, positions: np.ndarray, camera) -> np.ndarray:
+        """Window coordinates (pixels, y up, as GL's) of points seen by a camera."""
+        m = camera.projection_matrix(self.width / max(self.height, 1)) @ camera.view_matrix()
+        clip = np.c_[positions, np.ones(len(positions))] @ m.T
         ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
-        y, x = np.divmod(pixels, self.width)
-        now = np.stack([x + 0.5, self.height - (y + 0.5)], 1)
-        return np.c_[now - (ndc * 0.5 + 0.5) * [self.width, self.height], np.zeros(len(positions))]
+        return (ndc * 0.5 + 0.5) * [self.width, self.height]
 
 
 class Backend:

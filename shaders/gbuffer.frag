@@ -10,6 +10,7 @@ in vec3 v_color;
 #endif
 in vec4 v_clip;
 in vec4 v_prev_clip;
+uniform vec2 jitter_ndc;  // this frame's subpixel jitter, in v_clip (app/frame.py)
 uniform vec3 eye;
 uniform vec3 cam_forward;
 uniform vec2 viewport;
@@ -35,7 +36,7 @@ void main() {
     out_albedo = vec4(m.albedo, m.metallic);
     out_emissive = vec4(m.emissive, float(m.id));
     out_face = vec4(ng, 1.0);
-    vec2 cur = (v_clip.xy / v_clip.w * 0.5 + 0.5) * viewport;
+    vec2 cur = ((v_clip.xy / v_clip.w - jitter_ndc) * 0.5 + 0.5) * viewport;  // motion without the jitter
     vec2 prev = (v_prev_clip.xy / v_prev_clip.w * 0.5 + 0.5) * viewport;
     out_motion = cur - prev;
 }

@@ -41,6 +41,7 @@ class GBufferPass(Pass):
             set_uniform(prog, "eye", tuple(map(float, frame.camera.eye)))
             set_uniform(prog, "cam_forward", tuple(map(float, fwd)))
             set_uniform(prog, "viewport", (float(frame.width), float(frame.height)))
+            set_uniform(prog, "jitter_ndc", frame.jitter_ndc())
             vao.render()
             self.ctx.disable(self.ctx.DEPTH_TEST)
         for name in CHANNELS:

@@ -42,9 +42,11 @@ class EmbreeBackend(Backend):
     def begin_frame(self, inputs: FrameInputs) -> None:
         self.inputs = inputs
         if inputs.gbuffer is not None:
-            gb = from_raster(inputs.gbuffer, inputs.camera, inputs.width, inputs.height, reuse=True)
+            gb = from_raster(inputs.gbuffer, inputs.camera, inputs.width, inputs.height, reuse=True,
+                             jitter=inputs.jitter)
         else:
-            gb = trace_primary(self.data, self.tracer, inputs.camera, inputs.width, inputs.height, reuse=True)
+            gb = trace_primary(self.data, self.tracer, inputs.camera, inputs.width, inputs.height, reuse=True,
+                               jitter=inputs.jitter)
         self.frame = RtFrame(self.data, self.tracer, gb, inputs.environment, inputs.options, inputs.seed,
                              inputs.index, self._buffers)
 
@@ -61,7 +63,7 @@ class EmbreeBackend(Backend):
                   "metallic": s.metallic[:, None],
                   "emissive": s.emissive, "depth": gb.depth[gb.index][:, None]}
         if channel == "motion":
-            values["motion"] = inputs.motion(s.p, gb.index)
+            values["motion"] = inputs.motion(s.p)
         v = values[channel]
         return rf.full(np.broadcast_to(v, (len(s), 3)) if v.shape[1] == 1 else v)
 

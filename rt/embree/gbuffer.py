@@ -26,12 +26,14 @@ class CpuGBuffer:
         return self.width * self.height
 
 
-def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
+def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = False,
+                jitter=(0.0, 0.0)) -> CpuGBuffer:
     """packed: the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), as GL reads
     it: uint32 H x W x 4 ("geometry") and H x W x 2 ("material"), bottom row first.
     reuse: build it in this thread's scratch buffers (rt/embree/scratch.py), valid until the thread's
     next call: fresh arrays are ~80 MB a frame at 1280x720, and their page faults cost more than
-    the unpacking."""
+    the unpacking. jitter: the frame's subpixel offset (pixels, right and down), which the raster's
+    projection had."""
     from rt.embree import scratch
     from rt.embree.kernels import covered_pixels, unpack_gbuffer
 
@@ -54,12 +56,14 @@ def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = Fal
     r, u, f = (x.astype(np.float64) for x in camera.basis())
     unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx, row_start,
                    camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
-                   s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive, view, depth, covered, soa)
+                   np.asarray(jitter, np.float64), s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive,
+                   view, depth, covered, soa)
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth, soa)
 
 
-def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reuse: bool = False) -> CpuGBuffer:
-    """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse as from_raster."""
+def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reuse: bool = False,
+                  jitter=(0.0, 0.0)) -> CpuGBuffer:
+    """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse and jitter as from_raster."""
     from rt.embree import scratch
     from rt.embree.kernels import camera_rays
     from rt.embree.shading import empty_surface
@@ -68,7 +72,8 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     r, u, f = (x.astype(np.float64) for x in camera.basis())
     o = scratch.buffer("gbuffer.rt.o", (n, 3)) if reuse else np.empty((n, 3), np.float32)
     d = scratch.buffer("gbuffer.rt.d", (n, 3)) if reuse else np.empty((n, 3), np.float32)
-    camera_rays(camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)), width, height, o, d)
+    camera_rays(camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
+                np.asarray(jitter, np.float64), width, height, o, d)
     hits = tracer.intersect(o, d)
     covered = hits.hit
     idx = np.flatnonzero(covered)

@@ -195,20 +195,22 @@ def covered_pixels(geometry, height, width, idx, row_start):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _pixel_ray(p, width, height, tan_half, right, up, fwd):
-    """The ray through the centre of pixel p (row 0 at the top), of unit length along fwd."""
+def _pixel_ray(p, width, height, tan_half, jitter, right, up, fwd):
+    """The ray through pixel p (row 0 at the top) at its centre moved by jitter (pixels: right,
+    down), of unit length along fwd."""
     y, x = p // width, p % width
-    sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * (width / height)
-    sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half
+    sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * (width / height)
+    sy = (1.0 - (y + 0.5 + jitter[1]) / height * 2.0) * tan_half
     return (right[0] * sx + up[0] * sy + fwd[0], right[1] * sx + up[1] * sy + fwd[1],
             right[2] * sx + up[2] * sy + fwd[2])
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def camera_rays(eye, right, up, fwd, tan_half, width, height, origin, direction):
-    """Primary rays through pixel centres, row 0 at the top (as app/camera.py: primary_rays)."""
+def camera_rays(eye, right, up, fwd, tan_half, jitter, width, height, origin, direction):
+    """Primary rays through pixel centres moved by jitter (_pixel_ray), row 0 at the top (as
+    app/camera.py: primary_rays)."""
     for p in prange(width * height):
-        dx, dy, dz = _pixel_ray(p, width, height, tan_half, right, up, fwd)
+        dx, dy, dz = _pixel_ray(p, width, height, tan_half, jitter, right, up, fwd)
         inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
         direction[p, 0], direction[p, 1], direction[p, 2] = dx * inv, dy * inv, dz * inv
         origin[p, 0], origin[p, 1], origin[p, 2] = eye[0], eye[1], eye[2]
@@ -247,21 +249,22 @@ def _octahedral(word):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, up, fwd, tan_half,
+def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, up, fwd, tan_half, jitter,
                    P, N, NG, albedo, rough, metal, emis, view_dir, depth, covered, G):
     """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
     word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions,
     linear depths and coverage, top row first. Positions come back from the pixel's ray and
-    depth. Row by row (idx and row_start from covered_pixels): no division per pixel. G (9, M):
-    p, n and ng again as rows, what the ray generators read (rt/embree/raygen.py: surface_soa)."""
+    depth (the ray through the pixel's centre moved by jitter, as the raster's projection was).
+    Row by row (idx and row_start from covered_pixels): no division per pixel. G (9, M): p, n and
+    ng again as rows, what the ray generators read (rt/embree/raygen.py: surface_soa)."""
     height, width = geometry.shape[0], geometry.shape[1]
     aspect = width / height
     for y in prange(height):
         r = height - 1 - y
-        sy = (1.0 - (y + 0.5) / height * 2.0) * tan_half  # as _pixel_ray
+        sy = (1.0 - (y + 0.5 + jitter[1]) / height * 2.0) * tan_half  # as _pixel_ray
         for x in range(width):
             p = y * width + x
-            sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+            sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * aspect
             dx = right[0] * sx + up[0] * sy + fwd[0]
             dy = right[1] * sx + up[1] * sy + fwd[1]
             dz = right[2] * sx + up[2] * sy + fwd[2]
@@ -276,7 +279,7 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
             depth[p] = d
             covered[p] = True
             # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
-            sx = ((x + 0.5) / width * 2.0 - 1.0) * tan_half * aspect
+            sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * aspect
             dx = right[0] * sx + up[0] * sy + fwd[0]
             dy = right[1] * sx + up[1] * sy + fwd[1]
             dz = right[2] * sx + up[2] * sy + fwd[2]

@@ -141,6 +141,7 @@ class SlangBackend(Backend):
             c["g_eye"] = np.asarray(cam.eye, np.float32)
             c["g_right"], c["g_up"], c["g_forward"] = right, up, forward
             c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
+            c["g_jitter"] = np.asarray(inputs.jitter, np.float32)
 
         self.gpu_ms = {"primary": pipeline.dispatch(w, h, bind)}
         self._counted += w * h
@@ -158,7 +159,8 @@ class SlangBackend(Backend):
         self._compute("unpack", w, h, {
             "g_geometry": buffers["geometry"], "g_material": buffers["material"], "g_gbuffer": self.gbuffer,
             "g_width": w, "g_height": h, "g_eye": np.asarray(cam.eye, np.float32), "g_right": right, "g_up": up,
-            "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2))})
+            "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2)),
+            "g_jitter": np.asarray(self.inputs.jitter, np.float32)})
         self.gpu_ms = {}
 
     def _compute(self, name: str, w: int, h: int, variables: dict) -> None:
@@ -299,7 +301,7 @@ class SlangBackend(Backend):
                   "emissive": read["emissive"][:, :3],
                   "depth": read["albedo"][:, 3:4]}
         if channel == "motion":
-            values["motion"] = inputs.motion(read["position"][:, :3], np.arange(n))
+            values["motion"] = inputs.motion(read["position"][:, :3])
         v = np.broadcast_to(values[channel], (n, 3)) if values[channel].shape[1] == 1 else values[channel]
         return np.where(covered[:, None], v, 0.0).astype(np.float32)
 
