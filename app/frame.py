@@ -44,11 +44,12 @@ class Frame:
         return m
 
     def jitter_ndc(self) -> tuple[float, float]:
-        """The jitter in normalised device coordinates (y up)."""
-        return 2.0 * self.jitter[0] / self.width, -2.0 * self.jitter[1] / max(self.height, 1)
+        """How far the jittered projection moves the image, in normalised device coordinates (y
+        up): against the jitter, so that each pixel's centre sees what lies at its centre + jitter."""
+        return -2.0 * self.jitter[0] / self.width, 2.0 * self.jitter[1] / max(self.height, 1)
 
     def jitter_matrix(self) -> np.ndarray:
-        """Clip-space shift by the jitter: x' = x + jx w, so x'/w = x/w + jx."""
+        """Clip-space shift by jitter_ndc: x' = x + jx w, so x'/w = x/w + jx."""
         m = np.eye(4)
         m[0, 3], m[1, 3] = self.jitter_ndc()
         return m
