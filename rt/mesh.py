@@ -12,8 +12,7 @@ CORNER_COLUMNS, TANGENT_COLUMNS = 16, 28  # a triangle's row without / with vert
 
 
 class MeshArrays:
-    """The flat arrays of a scene (scenes.model.Scene); eps: the ray offset scale, far: the
-    length of rays to a sun or the sky."""
+    """The flat arrays of a scene (scenes.model.Scene); far: the length of rays to a sun or the sky."""
 
     def __init__(self, scene):
         self.scene = scene
@@ -75,6 +74,5 @@ class MeshArrays:
         self.tri_colors = (np.ones((1, 9), np.float32) if colors is None else
                            np.ascontiguousarray(np.asarray(colors, np.float32)[self.indices].reshape(-1, 9)))
         diagonal = scene.diagonal  # a pass over every vertex: once
-        self.eps = np.float32(max(diagonal * 2e-5, 1e-5))
         self.far = np.float32(max(diagonal * 4.0, 1.0))
 

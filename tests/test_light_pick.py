@@ -133,7 +133,7 @@ def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probabilit
     o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
                         np.zeros((n, 3), np.float32))
     idx = np.zeros(n, np.int32)
-    m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(1e-4), np.float32(far),
+    m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(far),
                                      weights, o, dirs, tmax, e, idx, rtcore.target(0), raygen.NOT_TRACED)
     ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters, guide, far)
     kept = [i for i, (k, direction, dist, light, _) in enumerate(ref) if direction @ N[i] > 0 and light.max() > 0]
@@ -147,7 +147,7 @@ def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probabilit
         if cone is not None:  # a sun: a direction in its cone, at the cosine drawn
             np.testing.assert_allclose(dirs[j] @ -analytic[2][k], cone, atol=1e-5)
         else:
-            np.testing.assert_allclose(tmax[j] + 2 * raygen.offset(np.float32(1e-4), *P[i]), dist, rtol=1e-4)
+            np.testing.assert_allclose(tmax[j] / (1 - raygen.SHADOW_SHORTEN), dist, rtol=1e-4)
         np.testing.assert_allclose(e[j], light * cs, rtol=2e-4, atol=1e-8)
 
 
@@ -177,7 +177,7 @@ def test_a_single_light_is_sampled_as_when_picked_among_others():
         o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
                             np.zeros((n, 3), np.float32))
         idx = np.zeros(n, np.int32)
-        m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(1e-4),
+        m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide,
                                          np.float32(far), weights, o, dirs, tmax, e, idx, rtcore.target(0),
                                          raygen.NOT_TRACED)
         with np.errstate(invalid="ignore"):  # 0 / 0 where the light has no weight: those carry nothing

@@ -1,5 +1,5 @@
 """G-buffer packing for the CPU (raster): the five RGBA32F targets the ray-traced passes start
-from, packed on the GPU into 24 bytes a pixel (shaders/gbuffer_pack.frag) before the
+from, packed on the GPU into 32 bytes a pixel (shaders/gbuffer_pack.frag) before the
 readback, instead of the 80 bytes a pixel of the targets themselves."""
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ class GBufferPackPass(Pass):
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self.targets = Targets(ctx, {"geometry": (4, "u4"), "material": (2, "u4")})
+        self.targets = Targets(ctx, {"geometry": (4, "u4"), "material": (4, "u4")})
 
     def execute(self, frame) -> None:
         t = self.targets.ensure(frame.width, frame.height)
@@ -35,9 +35,9 @@ class GBufferPackPass(Pass):
             frame.channels["gbuffer_packed"] = self.read()
 
     def read(self) -> dict:
-        """The packed targets as GL stores them (bottom row first): uint32 H x W x 4 and x 2."""
+        """The packed targets as GL stores them (bottom row first): uint32 H x W x 4 each."""
         out = {}
-        for name, comps in (("geometry", 4), ("material", 2)):
+        for name, comps in (("geometry", 4), ("material", 4)):
             tex = self.targets[name]
             w, h = tex.size
             out[name] = np.frombuffer(tex.read(), np.uint32).reshape(h, w, comps)

@@ -9,7 +9,7 @@ from numba import njit
 from rt.embree import brdf
 from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
 from rt.embree.kernels import environment_rgb, environment_terms, uniform
-from rt.embree.raygen import offset
+from rt.embree.raygen import offset_origin
 from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
 
 
@@ -149,7 +149,7 @@ def _fresnel(albedo, metallic, nx, ny, nz, vx, vy, vz, a):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def mirror_rays(P, N, NG, V, sel, eps, origin, direction):
+def mirror_rays(P, N, NG, V, sel, origin, direction):
     """For the points sel[k], seen along V[k]: the mirror direction about the shading normal
     (about the face normal where that would enter the surface), from an origin nudged to that
     side; ray k."""
@@ -163,9 +163,8 @@ def mirror_rays(P, N, NG, V, sel, eps, origin, direction):
             rx, ry, rz = vx - c * NG[i, 0], vy - c * NG[i, 1], vz - c * NG[i, 2]
         direction[k, 0], direction[k, 1], direction[k, 2] = rx, ry, rz
         side = np.float32(-1.0) if NG[i, 0] * rx + NG[i, 1] * ry + NG[i, 2] * rz < 0 else np.float32(1.0)
-        s = side * offset(eps, P[i, 0], P[i, 1], P[i, 2])
-        for a in range(3):
-            origin[k, a] = P[i, a] + NG[i, a] * s
+        origin[k, 0], origin[k, 1], origin[k, 2] = offset_origin(P[i, 0], P[i, 1], P[i, 2], side * NG[i, 0],
+                                                                 side * NG[i, 1], side * NG[i, 2])
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
@@ -198,7 +197,7 @@ def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflectio
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def glossy_ray(p, n, ng, view, albedo, metallic, roughness, key, eps, origin, direction, weight):
+def glossy_ray(p, n, ng, view, albedo, metallic, roughness, key, origin, direction, weight):
     """A ray from point p (shading normal n, true normal ng) seen along `view` into its GGX lobe:
     a visible normal m (brdf.visible_normal, numbers brdf.GLOSSY_DIM + 0, 1), direction
     l = reflect(-v, m) and weight F(v.m) G1(l) per channel, 0 where l leaves below the surface."""
@@ -209,9 +208,7 @@ def glossy_ray(p, n, ng, view, albedo, metallic, roughness, key, eps, origin, di
     vm = vx * mx + vy * my + vz * mz
     lx, ly, lz = 2 * vm * mx - vx, 2 * vm * my - vy, 2 * vm * mz - vz
     direction[0], direction[1], direction[2] = lx, ly, lz
-    s = offset(eps, p[0], p[1], p[2])
-    for c in range(3):
-        origin[c] = p[c] + ng[c] * s
+    origin[0], origin[1], origin[2] = offset_origin(p[0], p[1], p[2], ng[0], ng[1], ng[2])
     nl = n[0] * lx + n[1] * ly + n[2] * lz
     if nl > ZERO and ng[0] * lx + ng[1] * ly + ng[2] * lz > ZERO:
         g = brdf.g1(nl, a)

@@ -29,7 +29,7 @@ class CpuGBuffer:
 def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = False,
                 jitter=(0.0, 0.0)) -> CpuGBuffer:
     """packed: the raster G-buffer packed for the CPU (app/raster/gbuffer_pack.py), as GL reads
-    it: uint32 H x W x 4 ("geometry") and H x W x 2 ("material"), bottom row first.
+    it: uint32 H x W x 4 ("geometry" and "material"), bottom row first.
     reuse: build it in this thread's scratch buffers (rt/embree/scratch.py), valid until the thread's
     next call: fresh arrays are ~80 MB a frame at 1280x720, and their page faults cost more than
     the unpacking. jitter: the frame's subpixel offset (pixels, right and down), which the raster's

@@ -41,7 +41,7 @@ def gi_frame(workers, scene, frame, base, rays, bounces, shadowed, ggx):
             keys = raygen.block_keys(pix, b0, b1, base)
             # dimensions 0-3: the light picked and its sample
             direct = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-            traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.eps, scene.far,
+            traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.far,
                                              lit, direct)
             indirect = np.zeros((nb, 3), np.float32)
             for r in range(rays):
@@ -89,7 +89,7 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
     for level in range(bounces):
         dim = 4 + 6 * (bounces * r + level)
         # ---- a cosine-weighted ray from each point, and its closest hit ----
-        m = raygen.hemisphere_live(G, g0, keys_a[:npts], dim, scene.eps, scene.far, o, d, t, owner,
+        m = raygen.hemisphere_live(G, g0, keys_a[:npts], dim, scene.far, o, d, t, owner,
                                    embree.no_trace(frame.target), raygen.NOT_TRACED)
         embree.trace_intersect(frame.target, o[:m], d[:m], tmax[:m], th, prim, u, v)
         level_light[:npts] = 0.0
@@ -103,8 +103,8 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
         hit_points = np.empty((9, k), np.float32)
         raygen.surface_soa(P[:k], N[:k], NG[:k], hit_points)
         hit_direct = brdf.accumulator(ggx, d, hits, rough[:k])
-        traced += m + raygen.direct_block(hit_points, 0, keys_b[:k], scene.lights, True, dim + 2, scene.eps,
-                                          scene.far, lit, hit_direct)
+        traced += m + raygen.direct_block(hit_points, 0, keys_b[:k], scene.lights, True, dim + 2, scene.far,
+                                          lit, hit_direct)
         gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct, None)
         if bounces == 1:
             break

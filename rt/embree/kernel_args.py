@@ -2,7 +2,7 @@
 tuples of arrays may be read inside a parallel loop's body):
 
 - SceneArgs, built once per scene (shading.SceneData.kernel_scene): the mesh that hits are
-  shaded with, the lights (shading.LightSet.kernel_args), the ray offset and the far distance;
+  shaded with, the lights (shading.LightSet.kernel_args) and the far distance;
 - FrameArgs, one per pass per frame (frame.RtFrame.kernel_frame): the covered pixels' points
   (layout.py rows) and G-buffer, the environment, the tracing target (rtcore.target) and the
   images the kernel writes."""
@@ -19,14 +19,13 @@ class SceneArgsType(types.StructRef):
 
 
 class SceneArgs(structref.StructRefProxy):
-    def __new__(cls, mesh, lights, eps, far):
-        return structref.StructRefProxy.__new__(cls, mesh, lights, eps, far)
+    def __new__(cls, mesh, lights, far):
+        return structref.StructRefProxy.__new__(cls, mesh, lights, far)
 
 
 structref.define_proxy(SceneArgs, SceneArgsType, [
     "mesh",  # SceneData.mesh_args: corners, face normals, material constants, texture layers
     "lights",  # (analytic, emitters, guide, count): raygen.direct_block's
-    "eps",  # ray offset scale (raygen.offset)
     "far",  # the length of rays to a sun or the sky
 ])
 

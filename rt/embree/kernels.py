@@ -23,12 +23,19 @@ from rt.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
 from rt.mesh import LAYER_BASE, LAYER_EMISSION, LAYER_ORM
 
 TWO_PI = 2.0 * math.pi
-# 8-bit sRGB code -> linear value (the packed G-buffer's albedo, shaders/gbuffer_pack.frag)
-_CODES = np.arange(256, dtype=np.float64) / 255.0
-SRGB_DECODE = np.where(_CODES <= 0.04045, _CODES / 12.92, ((_CODES + 0.055) / 1.055) ** 2.4).astype(np.float32)
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 M1 = np.uint64(0xBF58476D1CE4E5B9)
 M2 = np.uint64(0x94D049BB133111EB)
+# A hit found at o + t d (unit d), or from a camera ray and a depth, is off its surface by up to a
+# few ulps of |o| + t: each is lifted HIT_ERROR x (max |o_i| + t) along its true normal when made,
+# so that the nudge of the rays leaving it (raygen.offset_origin) starts on the right side.
+HIT_ERROR = np.float32(2.0**-20)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hit_lift(ox, oy, oz, t):
+    """How far a hit t along a unit ray from o is lifted off its surface (HIT_ERROR)."""
+    return (max(abs(ox), abs(oy), abs(oz)) + t) * HIT_ERROR
 
 
 @intrinsic
@@ -53,6 +60,30 @@ def prefetch_row(typingctx, array, row):
         return context.get_dummy_value()
 
     return nbtypes.void(array, row), codegen
+
+
+@intrinsic
+def float_bits(typingctx, x):
+    """The bits of a float32 as an int32 (C++'s bit_cast): what an offset in ulps adds to."""
+    if x != nbtypes.float32:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(32))
+
+    return nbtypes.int32(nbtypes.float32), codegen
+
+
+@intrinsic
+def bits_float(typingctx, i):
+    """An int32's bits as a float32 (float_bits' inverse)."""
+    if i != nbtypes.int32:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.FloatType())
+
+    return nbtypes.float32(nbtypes.int32), codegen
 
 
 @intrinsic
@@ -137,12 +168,14 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
         c = corners[tri]
         w1, w2 = bu[i], bv[i]
         w0 = 1.0 - w1 - w2
-        for a in range(3):
-            P[k, a] = O[i, a] + D[i, a] * t[i]
         gx, gy, gz = face_normals[tri, 0], face_normals[tri, 1], face_normals[tri, 2]
         if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
             gx, gy, gz = -gx, -gy, -gz
         NG[k, 0], NG[k, 1], NG[k, 2] = gx, gy, gz
+        lift = hit_lift(O[i, 0], O[i, 1], O[i, 2], t[i])
+        P[k, 0] = O[i, 0] + D[i, 0] * t[i] + gx * lift
+        P[k, 1] = O[i, 1] + D[i, 1] * t[i] + gy * lift
+        P[k, 2] = O[i, 2] + D[i, 2] * t[i] + gz * lift
         m = int(c[15])
         u, v = textures.hit_uv(c, w1, w2)
         nx = w0 * c[0] + w1 * c[3] + w2 * c[6]
@@ -254,7 +287,8 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
     """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
     word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions,
     linear depths and coverage, top row first. Positions come back from the pixel's ray and
-    depth (the ray through the pixel's centre moved by jitter, as the raster's projection was).
+    depth (the ray through the pixel's centre moved by jitter, as the raster's projection was),
+    lifted off the surface by their error (hit_lift).
     Row by row (idx and row_start from covered_pixels): no division per pixel. G (9, M): p, n and
     ng again as rows, what the ray generators read (rt/embree/raygen.py: surface_soa)."""
     height, width = geometry.shape[0], geometry.shape[1]
@@ -283,19 +317,18 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
             dx = right[0] * sx + up[0] * sy + fwd[0]
             dy = right[1] * sx + up[1] * sy + fwd[1]
             dz = right[2] * sx + up[2] * sy + fwd[2]
-            px, py, pz = eye[0] + dx * d, eye[1] + dy * d, eye[2] + dz * d
             nx, ny, nz = _octahedral(geometry[r, x, 1])
             gx, gy, gz = _octahedral(geometry[r, x, 2])
+            lift = hit_lift(eye[0], eye[1], eye[2], d * math.sqrt(dx * dx + dy * dy + dz * dz))
+            px, py, pz = eye[0] + dx * d + gx * lift, eye[1] + dy * d + gy * lift, eye[2] + dz * d + gz * lift
             P[j, 0], P[j, 1], P[j, 2] = px, py, pz
             N[j, 0], N[j, 1], N[j, 2] = nx, ny, nz
             NG[j, 0], NG[j, 1], NG[j, 2] = gx, gy, gz
             G[PX, j], G[PY, j], G[PZ, j], G[NX, j], G[NY, j], G[NZ, j] = px, py, pz, nx, ny, nz
             G[GX, j], G[GY, j], G[GZ, j] = gx, gy, gz
-            c = geometry[r, x, 3]
-            for a in range(3):  # stored sRGB-encoded (gbuffer_pack.frag): 8 bits keep dark colours
-                albedo[j, a] = SRGB_DECODE[(c >> (8 * a)) & 0xFF]
-            metal[j] = np.float32((c >> 24) & 0xFF) * np.float32(1 / 255)
-            m0, m1 = material[r, x, 0], material[r, x, 1]
+            c, m0, m1, m2 = geometry[r, x, 3], material[r, x, 0], material[r, x, 1], material[r, x, 2]
+            albedo[j, 0], albedo[j, 1], albedo[j, 2] = _half(c), _half(c >> 16), _half(m2)
+            metal[j] = _half(m2 >> 16)
             emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
             rough[j] = _half(m1 >> 16)
 

@@ -31,7 +31,7 @@ from numba import njit
 
 from rt.embree import rtcore as embree
 from rt.embree.brdf import SUM_EDVW, add_light
-from rt.embree.kernels import pixel_key, take_next, uniform
+from rt.embree.kernels import bits_float, float_bits, pixel_key, take_next, uniform
 from rt.layout import (
     CONE_COS,
     CONE_SCALE,
@@ -84,10 +84,44 @@ def cos_turns(u):
     return sin_turns(u + F(0.25))
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def offset(eps, px, py, pz):
-    """How far ray origins are nudged off a surface (tnear stays 0, as embreex had it)."""
-    return eps * (ONE + max(abs(px), abs(py), abs(pz)) * F(1e-3))
+# Ray origins leave a surface by a nudge along its true normal that does not depend on the
+# scene's size ("A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems
+# ch. 6): each coordinate moves by INT_SCALE x its normal component in units in the last place,
+# so the nudge grows with the coordinate as its rounding error does; coordinates within ORIGIN
+# of 0, whose ulps are tiny, move by FLOAT_SCALE x the normal component instead. The same rule in
+# common.slang (offset_origin). Shadow rays stop SHADOW_SHORTEN of their length short of the light.
+ORIGIN, FLOAT_SCALE, INT_SCALE = F(1.0 / 32.0), F(1.0 / 65536.0), F(256.0)
+SHADOW_SHORTEN = F(1.0 / 4096.0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _nudge(p, n):
+    p = F(p)
+    if abs(p) < ORIGIN:
+        return p + FLOAT_SCALE * F(n)
+    of = np.int32(INT_SCALE * F(n))
+    return bits_float(np.int32(float_bits(p) + (-of if p < ZERO else of)))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def offset_origin(px, py, pz, nx, ny, nz):
+    """A ray origin off the surface at p on the side its true normal n points to (tnear stays 0)."""
+    return _nudge(px, nx), _nudge(py, ny), _nudge(pz, nz)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def shadow_tmax(dist):
+    """How far a shadow ray to a light dist away goes: short of the light (an emitter's own
+    surface) by a fraction of its length, at any scale."""
+    return dist * (ONE - SHADOW_SHORTEN)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def offset_origins(P, NG, out):
+    """offset_origin over (n, 3) points and true normals (the NumPy steps' rays)."""
+    for i in range(P.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = offset_origin(P[i, 0], P[i, 1], P[i, 2], NG[i, 0], NG[i, 1], NG[i, 2])
+    return out
 
 
 NOT_TRACED = np.zeros((0, 3), np.float32)  # `acc` for generators given no scene (tr[0] 0)
@@ -116,8 +150,8 @@ def surface_soa(P, N, NG, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light):
-    """Append the step's rays that carry something, in order: origin p + ng x offset, direction
+def _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, light):
+    """Append the step's rays that carry something, in order: origin offset_origin(p, ng), direction
     (blk's DIR rows), and the point's index; for light rays (`light`) tmax from the DIST row,
     stopping short of the light, and the light CARRIED, kept where it is not zero; for others
     tmax_value, kept where CARRIED > 0. Branch-free: every ray is written at
@@ -125,15 +159,12 @@ def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, id
     this loop: fewer output rows let them vectorise.)"""
     for j in range(nb):
         i = b0 + j
-        px, py, pz = G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i]
-        s = offset(eps, px, py, pz)
-        origin[m, 0] = px + G[GX, g0 + i] * s
-        origin[m, 1] = py + G[GY, g0 + i] * s
-        origin[m, 2] = pz + G[GZ, g0 + i] * s
+        origin[m, 0], origin[m, 1], origin[m, 2] = offset_origin(G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i],
+                                                                 G[GX, g0 + i], G[GY, g0 + i], G[GZ, g0 + i])
         direction[m, 0], direction[m, 1], direction[m, 2] = blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j]
         idx[m] = i
         if light:
-            tmax[m] = max(blk[DIST, j] - TWO * s, s)
+            tmax[m] = shadow_tmax(blk[DIST, j])
             ex, ey, ez = blk[CARRIED, j], blk[CARRIED + 1, j], blk[CARRIED + 2, j]
             e[m, 0], e[m, 1], e[m, 2] = ex, ey, ez
             m += max(ex, ey, ez) > ZERO
@@ -144,7 +175,7 @@ def _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, id
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, light):
+def _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light):
     """_pack's rays, traced one by one instead of written out; acc[point] gains what each ray
     that gets through carries (see _pack and the module notes). Returns how many were traced."""
     m = 0
@@ -160,12 +191,11 @@ def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, ligh
             embree.log_put(tr, slot, -ONE, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO)
             continue
         i = b0 + j
-        px, py, pz = G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i]
-        s = offset(eps, px, py, pz)
-        t = max(blk[DIST, j] - TWO * s, s) if light else tmax_value
+        ox, oy, oz = offset_origin(G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i], G[GX, g0 + i], G[GY, g0 + i],
+                                   G[GZ, g0 + i])
+        t = shadow_tmax(blk[DIST, j]) if light else tmax_value
         m += 1
-        if embree.trace_occluded(tr, slot, buf, words, b, px + G[GX, g0 + i] * s, py + G[GY, g0 + i] * s,
-                                 pz + G[GZ, g0 + i] * s, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t):
+        if embree.trace_occluded(tr, slot, buf, words, b, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t):
             continue
         if light:
             add_light(acc, i, ex, ey, ez, G[NX, g0 + i], G[NY, g0 + i], G[NZ, g0 + i], blk[DIR, j], blk[DIR + 1, j],
@@ -176,12 +206,12 @@ def _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, ligh
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _emit(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, tr, buf, words, b, acc, light):
+def _emit(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, tr, buf, words, b, acc, light):
     """A step's rays (blk), traced into acc if tr has a scene (_trace_add), else packed after the
     m already packed (_pack); returns the new count."""
     if tr[0]:
-        return m + _trace_add(G, g0, b0, nb, blk, eps, tmax_value, tr, buf, words, b, acc, light)
-    return _pack(G, g0, b0, nb, blk, m, eps, tmax_value, origin, direction, tmax, e, idx, light)
+        return m + _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light)
+    return _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, light)
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -207,7 +237,7 @@ def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, idx, tr, acc):
+def hemisphere_live(G, g0, keys, dim, tmax_value, origin, direction, tmax, idx, tr, acc):
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
     those above the true surface (or, if tr has a scene, traces them and counts in acc those
     that escape). Returns the count."""
@@ -221,7 +251,7 @@ def hemisphere_live(G, g0, keys, dim, eps, tmax_value, origin, direction, tmax, 
         c0, c1 = g0 + b0, g0 + b1  # columns of G
         _hemisphere_step(G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1], G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1],
                          keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
-        m = _emit(G, g0, b0, b1 - b0, blk, m, eps, tmax_value, origin, direction, tmax, origin, idx, tr, buf, words, b,
+        m = _emit(G, g0, b0, b1 - b0, blk, m, tmax_value, origin, direction, tmax, origin, idx, tr, buf, words, b,
                   acc, False)
     return m
 
@@ -283,7 +313,7 @@ def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, f
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direction, tmax, e, idx, tr, acc):
+def analytic_shadow_rays(k, G, g0, keys, dim, analytic, far, origin, direction, tmax, e, idx, tr, acc):
     """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed
     (or traced into acc if tr has a scene); returns the count."""
     n = keys.shape[0]
@@ -297,7 +327,7 @@ def analytic_shadow_rays(k, G, g0, keys, dim, analytic, eps, far, origin, direct
         _analytic_step(k, G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
                        G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1], dim, analytic, far,
                        blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        m = _emit(G, g0, b0, b1 - b0, blk, m, eps, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
     return m
 
 
@@ -344,7 +374,7 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin, direction, tmax, e, idx, tr,
+def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, origin, direction, tmax, e, idx, tr,
                         acc):
     """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G,
     packed (or traced into acc if tr has a scene)."""
@@ -360,7 +390,7 @@ def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, eps, origin
         _cluster_step(lo, hi, G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
                       G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1], dim, rows, keep, alias,
                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], U, S, b1 - b0)
-        m = _emit(G, g0, b0, b1 - b0, blk, m, eps, ZERO, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, ZERO, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
     return m
 
 
@@ -533,7 +563,7 @@ def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, e
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far, weights, origin, direction, tmax,
+def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weights, origin, direction, tmax,
                           e, idx, tr, acc):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
@@ -580,7 +610,7 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, eps, far,
                         pick[i] += ONE if w[k, i] <= target[i] else ZERO
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
             _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
-        m = _emit(G, g0, b0, nb, blk, m, eps, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
+        m = _emit(G, g0, b0, nb, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
     return m
 
 
@@ -659,7 +689,7 @@ def no_rays():
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def direct_block(G, b0, keys, lights, one, dim0, eps, far, tr, total):
+def direct_block(G, b0, keys, lights, one, dim0, far, tr, total):
     """Irradiance x cos from every light (one shadow ray each, dimensions dim0 + 3k) or from one
     chosen light (one: dimensions dim0..dim0+3) at points b0.. of G (keys: theirs), traced here
     and added into total (zeroed first); returns the rays traced. lights: LightSet.kernel_args.
@@ -675,29 +705,29 @@ def direct_block(G, b0, keys, lights, one, dim0, eps, far, tr, total):
         o, d, t, e, idx = (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
                            np.empty((n, 3), np.float32), np.empty(n, np.int32))
         for k in range(1 if one else n_lights):
-            m = _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total)
+            m = _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total)
             add_unblocked(total, idx, d, e, np.zeros(m, np.bool_), m, G, b0)
         return 0
     traced = 0
     for k in range(1 if one else n_lights):
-        traced += _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total)
+        traced += _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total)
     return traced
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _light_rays(k, G, b0, keys, lights, one, dim0, eps, far, o, d, t, e, idx, tr, total):
+def _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total):
     """direct_block's rays: to one chosen light (one), else to light k (dimensions dim0 + 3k),
     packed into o, d, t, e, idx or traced into total (tr has a scene); returns their count."""
     analytic, emitters, guide, n_lights = lights
     if one:
         weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
-        return one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, eps, far, weights, o, d, t, e, idx,
+        return one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, far, weights, o, d, t, e, idx,
                                      tr, total)
     start, rows, keep, alias = emitters
     count_analytic = analytic[0].shape[0]
     dim = dim0 + 3 * k
     if k < count_analytic:
-        return analytic_shadow_rays(k, G, b0, keys, dim, analytic, eps, far, o, d, t, e, idx, tr, total)
+        return analytic_shadow_rays(k, G, b0, keys, dim, analytic, far, o, d, t, e, idx, tr, total)
     j = k - count_analytic
-    return cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, eps, o, d, t, e, idx,
+    return cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, o, d, t, e, idx,
                                tr, total)

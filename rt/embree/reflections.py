@@ -22,7 +22,7 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, refl):
     (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
-    gather.mirror_rays(P, N, NG, V, sel, scene.eps, o, d)
+    gather.mirror_rays(P, N, NG, V, sel, o, d)
     return _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl)
 
 
@@ -52,7 +52,7 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl):
     if lit:
         hg = np.empty((9, k), np.float32)
         raygen.surface_soa(HP, HN, HNG, hg)
-        traced += raygen.direct_block(hg, 0, hkeys, scene.lights, True, dim0, scene.eps, scene.far, frame.target,
+        traced += raygen.direct_block(hg, 0, hkeys, scene.lights, True, dim0, scene.far, frame.target,
                                       hdirect)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)
@@ -132,7 +132,7 @@ def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
         i, p = b0 + j, pix[b0 + j]
         gkeys[k] = keys[j]
         gather.glossy_ray(frame.p[i], frame.n[i], frame.ng[i], frame.view_dir[p], frame.albedo[i],
-                          frame.metallic[i], frame.roughness[i], keys[j], scene.eps, o[k], d[k], weight[k])
+                          frame.metallic[i], frame.roughness[i], keys[j], o[k], d[k], weight[k])
     refl = np.zeros((m, 3), np.float32)
     hits, _, _, _, _, _, _, _, _, colour, _, traced = _hits_of(scene, frame, o, d, gkeys, 4, True, True, refl)
     for i in range(hits.shape[0]):
@@ -171,7 +171,7 @@ def reflections_frame(workers, scene, frame, base, thr, lit, depth, ggx, glossy)
             local = np.empty((nb, 3), np.float32)
             if lit:
                 acc = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-                traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.eps, scene.far,
+                traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.far,
                                                  frame.target, acc)
                 for j in range(nb):
                     for a in range(3):

@@ -98,17 +98,18 @@ class SceneData(MeshArrays):
         if self._kernel_scene is None:
             from rt.embree.kernel_args import SceneArgs
 
-            self._kernel_scene = SceneArgs(self.mesh_args, self.lights.kernel_args, self.eps, self.far)
+            self._kernel_scene = SceneArgs(self.mesh_args, self.lights.kernel_args, self.far)
         return self._kernel_scene
 
-    def offset(self, s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
-        """Ray origins nudged off the surface (tnear stays 0, as embreex had it), on the side of `toward`."""
+    @staticmethod
+    def offset(s: Surface, toward: np.ndarray | None = None) -> np.ndarray:
+        """Ray origins nudged off the surface (raygen.offset_origin: tnear stays 0, as embreex had
+        it), on the side of `toward`."""
         ng = s.ng
         if toward is not None:
             side = np.einsum("ij,ij->i", ng, toward) < 0
             ng = np.where(side[:, None], -ng, ng)
-        scale = self.eps * (1.0 + np.abs(s.p).max(axis=1, keepdims=True) * 1e-3)
-        return (s.p + ng * scale).astype(np.float32)
+        return raygen.offset_origins(s.p, np.ascontiguousarray(ng, np.float32), np.empty((len(s.p), 3), np.float32))
 
 
 def light_rays(lights: LightSet, k: int, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
@@ -116,13 +117,13 @@ def light_rays(lights: LightSet, k: int, G, keys, dim: int, origin, direction, t
     """Shadow rays to light k from points G = (rows, first column) (Surface.soa), packed
     (rt/embree/raygen.py), or if scene traced and what gets through added to acc; returns their
     count."""
-    eps, far = lights.data.eps, lights.data.far
+    far = lights.data.far
     out = (origin, direction, tmax, e, idx, rtcore.target(scene), acc)
     if k < lights.count_analytic:
-        return raygen.analytic_shadow_rays(k, *G, keys, dim, lights.analytic, eps, far, *out)
+        return raygen.analytic_shadow_rays(k, *G, keys, dim, lights.analytic, far, *out)
     start, rows, keep, alias = lights.emitters
     j = k - lights.count_analytic
-    return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, eps, *out)
+    return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, *out)
 
 
 def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
@@ -131,7 +132,7 @@ def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax,
     by its estimated contribution, packed, or if scene traced and added to acc."""
     weights = scratch.buffer("light.w", (lights.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
     return raygen.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
-                                        lights.data.eps, lights.data.far, weights, origin, direction, tmax, e,
+                                        lights.data.far, weights, origin, direction, tmax, e,
                                         idx, rtcore.target(scene), acc)
 
 

@@ -28,7 +28,7 @@ def shadows_frame(workers, scene, frame, base, one, grey, ggx):
                 break
             keys = raygen.block_keys(pix, b0, b1, base)
             irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-            traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, one, 0, scene.eps, scene.far,
+            traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, one, 0, scene.far,
                                              frame.target, irradiance)
             albedo, metallic = frame.albedo[b0:b1], frame.metallic[b0:b1]
             gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, None, grey)

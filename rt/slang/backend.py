@@ -148,7 +148,7 @@ class SlangBackend(Backend):
 
     def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
         buffers = {}
-        for name, words in (("geometry", 4), ("material", 2)):  # device buffers reused from frame to frame
+        for name, words in (("geometry", 4), ("material", 4)):  # device buffers reused from frame to frame
             buffers[name] = self._buffer(f"gbuffer.packed_{name}", w * h, 4 * words)
             # GL's read-back arrays are read-only views, which slangpy does not take: a writable copy
             staging = self._staging.get(name)
@@ -234,7 +234,6 @@ class SlangBackend(Backend):
             self._environment(c["g_env"])
             c["g_width"] = w
             c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, stream)), np.uint32)
-            c["g_eps"] = float(self.scene.arrays.eps)
             c["g_write_aux"] = int(aux_name in channels)
             for name, value in values.items():
                 c[name] = value

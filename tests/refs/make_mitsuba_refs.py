@@ -1,12 +1,14 @@
 """Renders the Mitsuba 3 references that tests/test_brdf.py compares rtlab with (run by hand:
 `python tests/refs/make_mitsuba_refs.py`; needs `pip install mitsuba`, scalar_rgb: no GPU).
 
-The scene is tests/gltf_writer.ggx_spheres_document(): white metal spheres (glTF's Schlick F0 =
+The scenes: tests/gltf_writer.ggx_spheres_document(): white metal spheres (glTF's Schlick F0 =
 1, so F = 1 at every angle, as Mitsuba's roughconductor with material "none"), GGX with alpha =
-roughness^2 and Smith's separable G in both, under one point light. rtlab's own loader reads
-the geometry, the light and the camera; Mitsuba does all the shading. Each image is written
-as float16 (H, W, 3) linear radiance, with a box pixel filter (rtlab's pixels are point-sampled at
-their centres: the tests compare pixels away from silhouettes).
+roughness^2 and Smith's separable G in both, under one point light; ggx_grid_document() (glTF's
+BRDF as a plugin, below); tests/scenes_for_tests.closed_box(), a closed Lambert room with a box in
+it under one point light (Mitsuba's diffuse BSDF), for the convergence tests of
+tests/test_convergence.py. rtlab's own loader or builder makes the geometry, the light and the
+camera; Mitsuba does all the shading. Each image is written as float16 (H, W, 3) linear
+radiance, with a box pixel filter (what rtlab's jittered frames accumulate to).
 """
 from __future__ import annotations
 
@@ -19,13 +21,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-SIZES = {"spheres": (128, 64), "grid": (96, 96)}  # width, height
+SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48)}  # width, height
 CASES = {
-    # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, glTF's BRDF as a plugin)
-    "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, False),  # the point light alone: direct light
-    "ggx_spheres_env": ("spheres", 0.5, 4, 4096, False),  # and a constant sky, 3 bounces (reference.max_bounces=3)
-    "ggx_grid_direct": ("grid", 0.0, 2, 256, True),
-    "ggx_grid_env": ("grid", 0.5, 3, 1024, True),  # 2 bounces (reference.max_bounces=2)
+    # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, BSDF: conductor, gltf or diffuse)
+    "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, "conductor"),  # the point light alone: direct light
+    "ggx_spheres_env": ("spheres", 0.5, 4, 4096, "conductor"),  # and a constant sky, 3 bounces (max_bounces=3)
+    "ggx_grid_direct": ("grid", 0.0, 2, 256, "gltf"),
+    "ggx_grid_env": ("grid", 0.5, 3, 1024, "gltf"),  # 2 bounces (reference.max_bounces=2)
+    "box_direct": ("box", 0.0, 2, 4096, "diffuse"),  # direct light
+    "box_gi": ("box", 0.0, 3, 16384, "diffuse"),  # direct light and one bounce (gi.bounces=1)
 }
 
 
@@ -112,7 +116,7 @@ def gltf_bsdf_class():
     return GltfBSDF
 
 
-def mitsuba_scene(scene, env: float, max_depth: int, spp: int, gltf: bool, size: tuple) -> dict:
+def mitsuba_scene(scene, env: float, max_depth: int, spp: int, kind: str, size: tuple) -> dict:
     import mitsuba as mi
 
     view = scene.default_view()
@@ -128,9 +132,11 @@ def mitsuba_scene(scene, env: float, max_depth: int, spp: int, gltf: bool, size:
         params["vertex_normals"] = scene.normals[used].ravel()
         params["faces"] = remap[tris].astype(np.uint32).ravel()
         params.update()
-        if gltf:
+        if kind == "gltf":
             bsdf = {"type": "gltf", "base": mi.ScalarColor3f(*mat.base_color[:3]), "metallic": float(mat.metallic),
                     "roughness": float(mat.roughness)}
+        elif kind == "diffuse":
+            bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [float(c) for c in mat.base_color[:3]]}}
         else:
             bsdf = {"type": "roughconductor", "material": "none", "distribution": "ggx",
                     "alpha": float(mat.roughness) ** 2}
@@ -158,6 +164,7 @@ def main() -> int:
     mi.set_variant("scalar_rgb")
     from scenes.loaders import load_scene
     from tests.gltf_writer import ggx_grid_document, ggx_spheres_document, write_gltf
+    from tests.scenes_for_tests import closed_box
 
     GltfBSDF = gltf_bsdf_class()
     mi.register_bsdf("gltf", lambda props: GltfBSDF(props))
@@ -167,11 +174,12 @@ def main() -> int:
             path = Path(folder) / f"{key}.gltf"
             write_gltf(path, doc)
             scenes[key] = load_scene(str(path))
+    scenes["box"] = closed_box()
     only = sys.argv[1:]
-    for name, (key, env, depth, spp, gltf) in CASES.items():
+    for name, (key, env, depth, spp, kind) in CASES.items():
         if only and name not in only:
             continue
-        d = mitsuba_scene(scenes[key], env, depth, spp, gltf, SIZES[key])
+        d = mitsuba_scene(scenes[key], env, depth, spp, kind, SIZES[key])
         image = np.asarray(mi.render(mi.load_dict(d)), np.float32)[..., :3]
         out = ROOT / "tests" / "refs" / f"{name}.npy"
         np.save(out, image.astype(np.float16))

@@ -1,0 +1,45 @@
+"""Ray origins off surfaces at any scale (rt/embree/raygen.py: offset_origin, Ray Tracing Gems
+ch. 6; hits lifted by their error, kernels.hit_lift; the same in common.slang): ambient
+occlusion between two parallel planes h apart is (h / radius)^2 for cosine rays, whether the
+scene is a metre or a kilometre across, on every G-buffer path and backend."""
+import numpy as np
+import pytest
+
+from app.camera import Camera
+from rt.embree import raygen
+from scenes.builder import SceneBuilder, grid, trs
+from tests.test_rt import run
+
+
+def planes(h):
+    """A floor and a ceiling h apart, each 400 h wide (vertices 200 h from the axis), on black."""
+    b = SceneBuilder("planes")
+    b.environment.kind = "black"
+    b.material("grey", (0.5, 0.5, 0.5), roughness=1.0)
+    b.add(grid(8, 8), "grey", trs((0, 0, 0), 0, (400 * h, 1, 400 * h)))
+    b.add(grid(8, 8), "grey", trs((0, h, 0), 0, (400 * h, 1, 400 * h), rotate_x=np.pi))
+    return b.build()
+
+
+@pytest.mark.parametrize("h", [1.0, 1000.0])
+@pytest.mark.parametrize("sets", [(), ("gbuffer=rt",), ("tracer=vulkan",)])
+def test_ao_between_planes_is_exact_at_any_scale(gl, h, sets):
+    scene, radius = planes(h), 2.0 * h
+    cam = Camera(np.array([0.0, 0.5 * h, 0.0]), np.array([0.0, 0.0, -0.3 * h]), np.array([0.0, 1.0, 0.0]), 60)
+    cam.fit_clip(scene.diagonal)
+    pos = run(gl, scene, "position", camera=cam, sets=sets)
+    floor = np.abs(pos[..., 1]) < 1e-3 * h
+    assert floor.sum() > 1000
+    ao = run(gl, scene, "ao", frames=32, camera=cam, sets=sets + (f"ao.radius={radius}", "ao.rays_per_pixel=8"))
+    assert ao[floor][:, 0].mean() == pytest.approx((h / radius) ** 2, abs=0.003)
+
+
+def test_origins_leave_the_surface_by_ulps():
+    p = np.array([[0.0, 0.01, -3.0], [1000.0, -1e5, 0.5]], np.float32)
+    n = np.array([[0.0, 1.0, 0.0], [0.6, -0.8, 0.0]], np.float32)
+    o = raygen.offset_origins(p, n, np.empty_like(p))
+    assert o[0, 1] == np.float32(0.01) + np.float32(1 / 65536)  # near 0: a fixed step
+    assert o[0, 0] == 0.0 and o[0, 2] == -3.0
+    ulps = o.view(np.int32).astype(np.int64) - p.view(np.int32)
+    assert ulps[1].tolist() == [153, 204, 0]  # elsewhere 256 x n ulps, away from the surface on each axis
+    assert o[1, 0] > p[1, 0] and o[1, 1] < p[1, 1]
