@@ -27,7 +27,8 @@ from core.errors import UserError
 from rt.hybrid import EFFECTS as HYBRID_EFFECTS
 from scenes.loaders import load_scene
 
-# name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on
+# name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on, and the
+# one-sample ones as NAME+svgf and NAME+oidn: each frame denoised, without accumulation
 CONFIGS = {
     "forward": ("forward", []),
     "reflections": ("reflections", []),
@@ -42,7 +43,11 @@ CONFIGS = {
 }
 HYBRID_EFFECT = {"reflections": "reflections", "shadows_all": "shadows", "shadows_one": "shadows", "gi_1": "gi",
                  "gi_4": "gi", "gi_shadows": "gi", "ao_1": "ao", "ao_4": "ao"}
-ALL_CONFIGS = list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
+DENOISERS = ("svgf", "oidn")
+DENOISED = ("gi_1", "gi_shadows", "ao_1", "shadows_one")
+DENOISE_FRAMES = 16  # a denoised configuration's image: its 16th frame (SVGF's history fills), against 16 accumulated
+ALL_CONFIGS = (list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
+               + [f"{c}+{d}" for c in DENOISED for d in DENOISERS])
 DEFAULT_SCENES = ("arcade", "street", "cafe", "park", "temple")
 
 
@@ -60,9 +65,11 @@ def parse_configs(text: str | None) -> list[str]:
 
 
 def config_options(config: str) -> tuple[str, list[str]]:
-    base, _, acc = config.partition("+")
+    base, _, suffix = config.partition("+")
     pass_name, sets = CONFIGS[base]
-    return pass_name, sets + [f"accumulate={'true' if acc else 'false'}"]
+    if suffix in DENOISERS:
+        return pass_name, sets + ["accumulate=false", f"denoise={suffix}"]
+    return pass_name, sets + [f"accumulate={'true' if suffix else 'false'}"]
 
 
 def quality_options(config: str) -> list[str]:
@@ -140,9 +147,10 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
 
 
 def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int,
-                 seed: int = 0, base: tuple = ()) -> np.ndarray:
+                 seed: int = 0, base: tuple = (), accumulate: bool = True) -> np.ndarray:
+    """The displayed image after `frames` frames: their mean, or with accumulate False the last."""
     opts = Options()
-    opts.apply(list(base) + sets + ["accumulate=true"])
+    opts.apply(list(base) + sets + [f"accumulate={'true' if accumulate else 'false'}"])
     renderer.options = opts
     renderer.seed = seed
     renderer.reset()
@@ -179,8 +187,14 @@ def run_bench(args) -> int:
     ctx = create_headless_context()
     check_frame_size(ctx, *size)
     timed_configs = [c for c in configs]
-    quality_configs = [c for c in configs if not c.endswith("+acc")] if not args.no_quality else []
-    work = len(loaded) * (len(timed_configs) + (len(quality_configs) + 4 if quality_configs else 0))
+    quality_configs = [c for c in configs if "+" not in c] if not args.no_quality else []
+    denoised = [c for c in configs if c.partition("+")[2] in DENOISERS] if not args.no_quality else []
+    path_frames = 0 if args.no_quality else (args.path_frames if args.path_frames is not None else
+                                             (8 if args.quick else 60))
+    if path_frames < 0:
+        raise UserError("--path-frames must be 0 or more")
+    work = len(loaded) * (len(timed_configs) + (len(quality_configs) + 4 if quality_configs else 0) + len(denoised)
+                          + (1 if path_frames else 0))
     progress = Progress(work)
     results, scene_info = [], {}
     for _spec, scene in loaded:
@@ -208,6 +222,13 @@ def run_bench(args) -> int:
             scene_info[scene.name]["reference"] = measure_quality(
                 renderer, camera, quality_size, scene.name, rows, quality_configs, ref_frames, acc_frames,
                 out / "images", progress, common, args.reference_noise)
+        if denoised:
+            measure_denoisers(renderer, camera, quality_size, scene.name, rows, denoised, ref_frames, out / "images",
+                              progress, common)
+        if path_frames:
+            scene_info[scene.name]["path"] = measure_path(renderer, camera, quality_size, scene.diagonal, path_frames,
+                                                          max(ref_frames // 4, 4), common)
+            progress.update(1, f"{scene.name} camera path")
         renderer.release()
         results += rows
     from app.recommend import recommend
@@ -304,6 +325,116 @@ def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frame
                 r["quality"] = q
         progress.update(1, f"{scene_name} {config} quality: FLIP {q['flip_accumulated']:.3f}")
     return noise
+
+
+def measure_denoisers(renderer, camera, size, scene_name, rows, configs, converged_frames, images, progress,
+                      base: tuple = ()) -> None:
+    """Each denoised configuration's image (its DENOISE_FRAMES-th frame, the denoiser's own
+    history built over the ones before) against the same pass converged over converged_frames
+    accumulated frames (another seed), beside that pass's one raw frame and DENOISE_FRAMES
+    accumulated raw frames: mean FLIP of each, into the rows' "denoise"."""
+    from app.quality import mean_flip
+
+    by_config = {r["config"]: r for r in rows}
+    for name in dict.fromkeys(c.partition("+")[0] for c in configs):
+        pass_name, sets = CONFIGS[name]
+        converged = render_image(renderer, camera, size, pass_name, sets, converged_frames, seed=1, base=base)
+        raw = {n: render_image(renderer, camera, size, pass_name, sets, n, base=base) for n in (1, DENOISE_FRAMES)}
+        write_png(images / f"{scene_name}_{name}_converged.png", converged)
+        for config in (c for c in configs if c.partition("+")[0] == name):
+            denoiser = config.partition("+")[2]
+            image = render_image(renderer, camera, size, pass_name, sets + [f"denoise={denoiser}"], DENOISE_FRAMES,
+                                 base=base, accumulate=False)
+            write_png(images / f"{scene_name}_{config}.png", image)
+            by_config[config]["denoise"] = {
+                "frames": DENOISE_FRAMES, "converged_frames": converged_frames, "flip": mean_flip(converged, image),
+                "flip_raw_1": mean_flip(converged, raw[1]), f"flip_raw_{DENOISE_FRAMES}": mean_flip(converged,
+                                                                                                  raw[DENOISE_FRAMES])}
+            d = by_config[config]["denoise"]
+            progress.update(1, f"{scene_name} {config}: FLIP {d['flip']:.4f} (raw: 1 frame "
+                               f"{d['flip_raw_1']:.4f}, {DENOISE_FRAMES} frames {d[f'flip_raw_{DENOISE_FRAMES}']:.4f})")
+
+
+PATH_CONFIG = "gi_1"  # the configuration flown along the camera path, accumulated
+PATH_CHECKS = 4  # frames of the path compared with their converged image (the last one among them)
+
+
+def path_cameras(camera: Camera, diagonal: float, frames: int) -> list[Camera]:
+    """A dolly along the view direction with a slow sideways drift: 0.2 % of the scene's
+    diagonal a frame forward, 0.05 % sideways."""
+    right, _, forward = camera.basis()
+    out = []
+    for k in range(frames):
+        c = camera.copy()
+        step = diagonal * (0.002 * forward + 0.0005 * right) * k
+        c.eye, c.target = c.eye + step, c.target + step
+        out.append(c)
+    return out
+
+
+def measure_path(renderer, camera, size, diagonal, frames, converged_frames, base: tuple = ()) -> dict:
+    """PATH_CONFIG accumulated along a scripted camera path (path_cameras), with reproject on
+    and off (the study's restart on motion): at PATH_CHECKS frames of the path, mean FLIP
+    against that camera's converged image (converged_frames still frames); and the flicker, the
+    mean change of a point's displayed luminance from one frame to the next (where the raster
+    G-buffer sees the same surface at the reprojected pixel), over the whole path."""
+    from app.quality import mean_flip
+
+    pass_name, sets = CONFIGS[PATH_CONFIG]
+    cams = path_cameras(camera, diagonal, frames)
+    checks = sorted({int(round(x)) for x in np.linspace(frames - 1, 0, PATH_CHECKS, endpoint=False)})
+    converged = {k: render_image(renderer, cams[k], size, pass_name, sets, converged_frames, seed=1, base=base)
+                 for k in checks}
+    result = {"config": PATH_CONFIG, "frames": frames, "checked_frames": checks, "converged_frames": converged_frames}
+    for reproject in (False, True):
+        opts = Options()
+        opts.apply(list(base) + sets + ["accumulate=true", f"reproject={'true' if reproject else 'false'}"])
+        renderer.options, renderer.seed = opts, 0
+        renderer.reset()
+        flips, changes, prev = [], [], None
+        for k, cam in enumerate(cams):
+            renderer.render(cam, *size, pass_name)
+            shown = renderer.read_display().astype(np.float32) / 255.0
+            surface = _surface(renderer.frame)
+            if prev is not None and surface is not None:
+                changes.append(_frame_change(prev, (shown, surface)))
+            prev = (shown, surface)
+            if k in converged:
+                flips.append(mean_flip(converged[k], renderer.read_display()))
+        result["reproject" if reproject else "restart"] = {
+            "flip_mean": float(np.mean(flips)), "flips": flips,
+            "flicker": float(np.mean(changes)) if changes else None}
+    return result
+
+
+def _surface(frame):
+    """The frame's raster positions and motion vectors, top row first, or None without them."""
+    if "g_position" not in frame.channels or "g_motion" not in frame.channels:
+        return None
+    out = []
+    for name in ("g_position", "g_motion"):
+        tex = frame.channels[name]
+        w, h = tex.size
+        out.append(np.frombuffer(tex.read(), np.float32).reshape(h, w, tex.components)[::-1])
+    return out
+
+
+def _frame_change(prev, now) -> float:
+    """Mean |luminance change| of the points seen in both frames: each pixel of `now` against the
+    previous frame's pixel its motion vector points back to, where that pixel saw the same point
+    (within 1 % of the depth)."""
+    (img0, (pos0, _)), (img1, (pos1, motion)) = prev, now
+    h, w = img1.shape[:2]
+    y, x = np.mgrid[0:h, 0:w]
+    px = np.rint(x - motion[..., 0]).astype(int)
+    py = np.rint(y + motion[..., 1]).astype(int)  # motion is in GL's y-up pixels; rows run down
+    ok = (px >= 0) & (px < w) & (py >= 0) & (py < h) & (pos1[..., 3] > 0)
+    pxc, pyc = np.clip(px, 0, w - 1), np.clip(py, 0, h - 1)
+    same = ok & (np.linalg.norm(pos0[pyc, pxc, :3] - pos1[..., :3], axis=-1) < 0.01 * np.maximum(pos1[..., 3], 1e-6))
+    if not same.any():
+        return 0.0
+    lum = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    return float(np.abs(img1[same] @ lum - img0[pyc, pxc][same] @ lum).mean())
 
 
 def write_results(out: Path, doc: dict) -> None:

@@ -70,6 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default 0.01) or --reference-frames are spent")
     s.add_argument("--quality-frames", type=int, help="accumulated frames for the bias measurement (default 32)")
     s.add_argument("--no-quality", action="store_true", help="time only (no reference, FLIP, PSNR)")
+    s.add_argument("--path-frames", type=int, help="frames of the camera path flown with gi_1 accumulated, with and "
+                   "without reproject (default 60, --quick 8; 0: none)")
     s.add_argument("--budget-ms", type=float, help="frame-time budget for the recommendation rule")
     s.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="option for every configuration, e.g. tracer=vulkan (repeatable)")

@@ -30,6 +30,7 @@ class Frame:
     channels: dict = field(default_factory=dict)  # channel name -> texture, image or value
     wanted: frozenset = frozenset()  # the channels the graph reads from the pass now running
     jitter: tuple = (0.0, 0.0)  # subpixel offset of this frame's samples (pixels: right, down; app/camera.py)
+    moved: bool = False  # the camera moved since the last frame, whose accumulation goes on (reproject)
 
     @property
     def aspect(self) -> float:

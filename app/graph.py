@@ -1,7 +1,9 @@
 """Each pass mode (`--pass NAME`) as a small graph declared as data: the passes it runs, in
 order, each with the options under which it runs. The renderer wires the channels from the
 passes' reads and writes; the viewer's panel shows the option groups of the graph's passes.
-Every mode ends in accumulation and display (TAIL)."""
+Every mode ends in accumulation and display (TAIL), with the reprojection of the accumulated
+history before it (option reproject) but in the G-buffer views; the ray-traced effects' modes
+with a denoiser each side of the accumulation (DENOISED_TAIL: option denoise)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,6 +23,11 @@ RT_PRIMARY = (("gbuffer", "rt"),)
 # the front of a ray-traced mode: the raster G-buffer read back, or primary rays on the backend
 RT_FRONT = (Node("gbuffer", RASTER), Node("gbuffer_pack", RASTER), Node("primary"))
 FORWARD = (Node("shadow_maps"), Node("ssao"), Node("forward"))
+EFFECT_MODES = ("shadows", "reflections", "gi", "ao", "reference")
+SVGF, OIDN, REPROJECT = (("denoise", "svgf"),), (("denoise", "oidn"),), (("reproject", True),)
+# the denoisers and the reprojection read the raster G-buffer: rasterised for them where the
+# rays make their own primary hits
+GL_GBUFFER = tuple(Node("gbuffer", RT_PRIMARY + when) for when in (SVGF, OIDN, REPROJECT))
 
 
 def _hybrid_input(effect: str) -> Node:
@@ -33,21 +40,32 @@ MODES: dict[str, tuple[Node, ...]] = {
     # the forward graph with ray-traced inputs (rt/hybrid.py): always on the raster G-buffer
     "hybrid": (Node("gbuffer"), Node("gbuffer_pack"), Node("primary"))
     + tuple(_hybrid_input(e) for e in HYBRID_EFFECTS) + FORWARD,
-    **{effect: RT_FRONT + (Node(effect),) for effect in ("shadows", "reflections", "gi", "ao", "reference")},
+    **{effect: GL_GBUFFER + RT_FRONT + (Node(effect),) for effect in EFFECT_MODES},
     **{view: (Node("gbuffer", RASTER), Node("channel_view", RASTER), Node("primary", RT_PRIMARY),
               Node("gbuffer_view", RT_PRIMARY)) for view in CHANNEL_VIEWS},
 }
 TAIL = (Node("accumulation"), Node("display"))
+REPROJECTED_TAIL = (Node("reproject", REPROJECT),) + TAIL
+DENOISED_TAIL = (Node("svgf", SVGF), Node("reproject", REPROJECT), Node("accumulation"), Node("oidn", OIDN),
+                 Node("display"))
+
+
+def tail(mode: str) -> tuple[Node, ...]:
+    if mode in EFFECT_MODES:
+        return DENOISED_TAIL
+    return TAIL if mode in CHANNEL_VIEWS else REPROJECTED_TAIL
 
 
 def active(mode: str, options) -> list[str]:
     """The passes a mode runs under these options, in order, the tail included."""
-    return [n.pass_name for n in MODES[mode] + TAIL if all(options.get(k) == v for k, v in n.when)]
+    return [n.pass_name for n in MODES[mode] + tail(mode) if all(options.get(k) == v for k, v in n.when)]
 
 
 def every_pass(mode: str) -> list[str]:
-    """Every pass a mode may run, whatever the options (the panel shows all their options)."""
-    return list(dict.fromkeys(n.pass_name for n in MODES[mode]))
+    """Every pass a mode may run, whatever the options (the panel shows all their options): the
+    tail's with options of their own (the denoisers) too."""
+    return list(dict.fromkeys(n.pass_name for n in MODES[mode] + tail(mode)
+                              if n.pass_name not in ("accumulation", "display", "reproject")))
 
 
 MODE_OPTIONS = {"hybrid": ("hybrid",)}  # a mode's own option groups, besides its passes'

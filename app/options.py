@@ -20,8 +20,14 @@ def _check_env(text: str) -> None:
 class GlobalOptions:
     accumulate: bool = opt(True, "average frames while nothing changes")
     max_frames: int = opt(0, "stop accumulating after this many frames (0 = never)", 0, 1_000_000)
+    reproject: bool = opt(False, "accumulation survives camera motion: each pixel's mean follows its point through "
+                          "the motion vectors, restarting where the surface changes (false: the study's restart "
+                          "on any motion)")
     jitter: bool = opt(True, "while accumulating, sample a different point of each pixel every frame (Halton 2,3), "
                        "so the average is the pixel's box-filtered image (antialiased edges)")
+    denoise: str = opt("off", "denoiser of the ray-traced modes' image: svgf (spatio-temporal variance-guided "
+                       "filtering, GL shaders, before accumulation) or oidn (Intel Open Image Denoise on the CPU, "
+                       "of the image shown)", choices=("off", "svgf", "oidn"))
     gbuffer: str = opt("raster", "G-buffer source: raster (GPU) or rt (primary rays)", choices=("raster", "rt"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
     env: str = opt("scene", "radiance of rays that miss: scene, black, sky or R,G,B", check=_check_env)

@@ -4,9 +4,12 @@ from app.raster.channel_view import CHANNEL_VIEWS, ChannelViewPass
 from app.raster.forward_lighting import ForwardLightingPass
 from app.raster.gbuffer import GBufferPass
 from app.raster.gbuffer_pack import GBufferPackPass
+from app.raster.oidn import OidnPass
 from app.raster.postprocess import AccumulationPass, DisplayPass
+from app.raster.reproject import ReprojectPass
 from app.raster.shadow_maps import ShadowMapPass
 from app.raster.ssao import SSAOPass
+from app.raster.svgf import SvgfPass
 from core.errors import UserError
 from rt import hybrid  # noqa: F401  (registers the hybrid group)
 from rt.ao import AOPass
@@ -21,7 +24,7 @@ RAY_TRACED = ("shadows", "reflections", "gi", "ao", "hybrid", "reference")
 ALL = RASTER + RAY_TRACED + CHANNEL_VIEWS
 
 GL_PASSES = (GBufferPass, GBufferPackPass, ShadowMapPass, SSAOPass, ForwardLightingPass, ChannelViewPass,
-             AccumulationPass, DisplayPass)  # made with the GL context
+             SvgfPass, ReprojectPass, AccumulationPass, OidnPass, DisplayPass)  # made with the GL context
 RT_PASSES = (PrimaryPass, ShadowsPass, ReflectionsPass, GIPass, AOPass, ReferencePass, GBufferViewPass)
 
 

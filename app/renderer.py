@@ -80,6 +80,7 @@ class Renderer:
         self.prev_camera = None
         self.frame: Frame | None = None
         self.seed = 0
+        self.frames_made = 0  # frames since reset(): numbers their random draws and jitter
         # the viewer sets this: a deterministic (raster) frame whose inputs did not change is
         # shown again instead of re-rendered, which keeps the UI responsive on software GL
         self.reuse_static_frames = False
@@ -132,7 +133,11 @@ class Renderer:
         return self.accumulation.count
 
     def reset(self) -> None:
+        """Start afresh: accumulation, the frame numbering and every pass's history (SVGF's)."""
         self._state = None
+        self.frames_made = 0
+        for p in self.passes.values():
+            p.reset()
 
     def jittering(self, pass_name: str) -> bool:
         """Whether this mode's accumulated frames sample jittered points of their pixels (not the
@@ -169,7 +174,12 @@ class Renderer:
         if (self.reuse_static_frames and state == self._state and self.frame is not None
                 and (self.deterministic(pass_name) or converged)):
             return None  # nothing would change: show the last frame
+        moved = False
         if state != self._state:
+            # with reproject, a moved camera carries the mean on (app/raster/reproject.py): only
+            # the count of still frames restarts
+            moved = (bool(self.options.get("reproject")) and self._state is not None
+                     and state[:1] + state[2:] == self._state[:1] + self._state[2:])
             self.accumulation.reset()
             self._state = state
         self.profiler.begin_frame()
@@ -180,8 +190,13 @@ class Renderer:
         traced = [n for n in names if self.passes[n].device == "rt"]
         first = names.index(traced[0]) if traced else len(names)
         last = names.index(traced[-1]) + 1 if traced else len(names)
+        # frames number their random draws from the last reset(), on through restarts of the mean, so
+        # that each frame's noise is new (a moving camera's too, a denoiser's input)
+        index = self.frames_made
+        self.frames_made += 1
         frame = Frame(self.ctx, self.scene, self.gpu, camera, self.prev_camera or camera, width, height, self.options,
-                      self.profiler, self.environment(), self.accumulation.count, self.seed, pass_name, backend)
+                      self.profiler, self.environment(), index, self.seed, pass_name, backend)
+        frame.moved = moved
         if self.jittering(pass_name):
             frame.jitter = subpixel_jitter(frame.index)
         job = Job(frame, state, pass_name, names[:first], names[first:last], names[last:],

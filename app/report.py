@@ -82,6 +82,37 @@ def quality_rows(doc: dict) -> list[list[str]]:
     return rows
 
 
+def denoise_rows(doc: dict) -> list[list[str]]:
+    """Each denoised configuration (bench.measure_denoisers): the denoiser's own time at the
+    timing size, and mean FLIP against the pass converged, beside the raw frames'."""
+    rows = []
+    for r in doc["results"]:
+        d = r.get("denoise")
+        if not d:
+            continue
+        denoiser = r["config"].partition("+")[2]
+        raw_n = d[f"flip_raw_{d['frames']}"]
+        rows.append([r["scene"], r["config"], f"{r['passes_ms'].get(denoiser, float('nan')):.1f}",
+                     f"{d['flip_raw_1']:.4f}", f"{raw_n:.4f}", f"{d['flip']:.4f}",
+                     "yes" if d["flip"] <= raw_n else "no"])
+    return rows
+
+
+def path_rows(doc: dict) -> list[list[str]]:
+    """The camera path flown with and without reprojection (bench.measure_path), per scene."""
+    def fmt(v):
+        return "–" if v is None else f"{v:.4f}"
+
+    rows = []
+    for name, info in doc.get("scenes", {}).items():
+        p = info.get("path")
+        if p:
+            a, b = p["restart"], p["reproject"]
+            rows.append([name, f"{p['config']} ×{p['frames']}", fmt(a["flip_mean"]), fmt(b["flip_mean"]),
+                         fmt(a["flicker"]), fmt(b["flicker"])])
+    return rows
+
+
 def reference_noise_lines(doc: dict) -> list[str]:
     """Each scene's reference noise (bench.converge_reference), when the results have it."""
     lines = []
@@ -235,6 +266,27 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
         rh = ["scene", "measured recommendation", "why", "study archetype", "study's recommendation"]
         rrows = recommendation_rows(doc, budget_ms)
         md += ["## Recommendations", "", f"Rule: {rule_text(budget_ms)}", ""] + _table(rh, rrows) + [""]
+    drows = denoise_rows(doc)
+    if drows:
+        first = next(r["denoise"] for r in doc["results"] if r.get("denoise"))
+        n = first["frames"]
+        dh = ["scene", "config", "denoiser ms", "FLIP 1 raw frame", f"FLIP {n} raw frames",
+              f"FLIP denoised (frame {n})", f"denoised ≤ {n} raw"]
+        qw, qh = s["quality_size"]
+        md += ["## Denoisers", "", "Each pass's image against the same pass converged over "
+               f"{first['converged_frames']} accumulated frames (mean FLIP, {qw}×{qh}): one raw frame, {n} "
+               f"accumulated raw frames, and the {n}th frame of a still camera denoised without accumulation (SVGF's "
+               "history built over the frames before; OIDN filters each frame alone). The denoiser's time is its own "
+               f"pass at {s['size'][0]}×{s['size'][1]}.", ""] + _table(dh, drows) + [""]
+    prows = path_rows(doc)
+    if prows:
+        first = next(i["path"] for i in doc["scenes"].values() if i.get("path"))
+        ph = ["scene", "path", "FLIP restart", "FLIP reproject", "flicker restart", "flicker reproject"]
+        md += ["## Camera path", "", f"A dolly through the scene ({first['frames']} frames, accumulating), as the "
+               "study measured (the mean restarts on motion) and with `reproject=true`: mean FLIP of frames "
+               f"{', '.join(str(k + 1) for k in first['checked_frames'])} against their camera's converged image "
+               f"({first['converged_frames']} frames), and the flicker, the mean change of a point's displayed "
+               "luminance from one frame to the next.", ""] + _table(ph, prows) + [""]
     plots = make_plots(doc, folder)
     md += ["## Plots", ""] + [f"![{t}]({p})" for t, p in plots] + [""]
     gal = gallery(doc, folder)

@@ -292,7 +292,9 @@ class Viewer:
         self.ctx.screen.viewport = (0, 0, max(w, 1), max(h, 1))
         self.ctx.screen.clear(0.08, 0.08, 0.09, 1.0)
         if w > 0 and h > 0:  # minimised windows are 0x0: skip rendering, keep the loop alive
-            scale = self.resolution_scale * (self.motion_scale if self.moving else 1.0)
+            # a reprojected accumulation needs the same size while moving (its history is per pixel)
+            shrink = self.moving and not self.options.get("reproject")
+            scale = self.resolution_scale * (self.motion_scale if shrink else 1.0)
             rw, rh = max(1, int(w * scale)), max(1, int(h * scale))
             try:
                 self.main.advance(self.fly.camera, rw, rh, self.pass_name, start_new)

@@ -78,6 +78,6 @@ def test_panel_shows_the_option_groups_of_the_modes_graph():
     from app.graph import option_groups
 
     assert option_groups("hybrid") == ["hybrid", "shadows", "ao", "reflections", "gi", "forward"]
-    assert option_groups("reference") == ["reference", "reflections"]
-    assert option_groups("gi") == ["gi"] and option_groups("forward") == ["forward"]
+    assert option_groups("reference") == ["reference", "reflections", "svgf", "oidn"]  # and the denoisers'
+    assert option_groups("gi") == ["gi", "svgf", "oidn"] and option_groups("forward") == ["forward"]
     assert option_groups("albedo") == []

@@ -44,6 +44,7 @@ def run_check(name: str, timeout: int = 600):
                                   "switching_pass_never_shows_the_old_image_under_the_new_name",
                                   "dropping_a_file_opens_it", "f12_writes_into_the_screenshots_folder",
                                   "flying_in_a_ray_traced_pass_shows_frames", "ui_fuzz",
+                                  "denoisers_and_reprojection_in_the_viewer",
                                   "cold_start_compiles_in_the_background"])
 def test_window_behaviour(display, name):
     if name.startswith("keys") and shutil.which("xdotool") is None:

@@ -152,6 +152,33 @@ def test_flying_in_a_ray_traced_pass_shows_frames():
         v.close()
 
 
+def test_denoisers_and_reprojection_in_the_viewer():
+    """GI at one ray with SVGF and reprojection while flying, then OIDN: each shows frames, and
+    the profiler (the panel's per-pass times) has the denoiser's and the reprojection's own time."""
+    from app.fly_camera import FlyInput
+    from app.viewer import Viewer
+
+    v = Viewer(view_args(pass_name="gi", size="160x100", set=["denoise=svgf", "reproject=true"]))
+    try:
+        for denoiser, wanted in (("svgf", ("svgf", "reproject")), ("oidn", ("oidn", "reproject"))):
+            v.options.set("denoise", denoiser)
+            shown = len(v.main.shown_times)
+            deadline = time.time() + 120
+            while len(v.main.shown_times) < shown + 4 and time.time() < deadline:
+                v.glfw.poll_events()
+                v.fly.update(0.05, FlyInput(move=(0.0, 0.0, 1.0)))
+                v.frame(0.05)
+                time.sleep(0.01)
+            v.wait_for_frame()
+            v.renderer.profiler.collect()
+            assert len(v.main.shown_times) >= shown + 4, f"{denoiser}: no frames shown while flying"
+            names = v.renderer.profiler.names()
+            assert all(n in names for n in wanted), f"{denoiser}: profiler shows {names}"
+            assert v.panel.error is None or denoiser not in str(v.panel.error)
+    finally:
+        v.close()
+
+
 def _ui_fuzz(seed: int, steps: int) -> None:
     """Random user actions, as the panel, keys, mouse and window make them: passes, scenes (and
     bad files), options (valid and not), the split view, bookmarks, resizing, flying, dropping
@@ -168,7 +195,8 @@ def _ui_fuzz(seed: int, steps: int) -> None:
     values = {"exposure": ["0.5", "2", "-1", "nan"], "env": ["sky", "black", "1,2,3", "x"],
               "accumulate": ["true", "false"], "max_frames": ["0", "3", "-2"], "gbuffer": ["raster", "rt", "?"],
               "ao.radius": ["0.3", "1e9", "0"], "gi.rays_per_pixel": ["1", "2", "65"],
-              "shadows.lights": ["one", "all", "none"], "reflections.max_depth": ["1", "3", "x"]}
+              "shadows.lights": ["one", "all", "none"], "reflections.max_depth": ["1", "3", "x"],
+              "denoise": ["off", "svgf", "oidn", "blur"], "reproject": ["true", "false"], "jitter": ["true", "no?"]}
     with tempfile.TemporaryDirectory() as folder:
         v.screenshot_dir = folder
         actions = [

@@ -8,10 +8,12 @@ from core.passes import Pass
 
 
 class AccumulationPass(Pass):
-    """Running mean of the pass output while nothing changes; reset() restarts it."""
+    """Running mean of the pass output while nothing changes; reset() restarts it. With a
+    reprojection (reproject=true: app/raster/reproject.py) each pixel keeps its own count and
+    carries its mean through camera motion."""
 
     name = "accumulation"
-    reads = ("radiance",)
+    reads = ("radiance", "reprojection")
     writes = ("accumulated",)
 
     def __init__(self, ctx):
@@ -35,7 +37,8 @@ class AccumulationPass(Pass):
             return
         self.ping.ensure(frame.width, frame.height)
         dst = self.pong.ensure(frame.width, frame.height)
-        prog, vao = fullscreen(self.ctx, "accumulate.frag")
+        reprojection = frame.channels.get("reprojection")
+        prog, vao = fullscreen(self.ctx, "accumulate.frag" if reprojection is None else "accumulate_reproject.frag")
         with frame.profiler.gpu(self.ctx, "accumulation"):
             dst.fbo.use()
             dst.fbo.viewport = (0, 0, frame.width, frame.height)
@@ -44,6 +47,10 @@ class AccumulationPass(Pass):
             set_uniform(prog, "current", 0)
             set_uniform(prog, "history", 1)
             set_uniform(prog, "weight", 1.0 / (self.count + 1))
+            if reprojection is not None:
+                reprojection.use(2)
+                set_uniform(prog, "reprojection", 2)
+                set_uniform(prog, "max_count", float(max_frames))
             vao.render(vertices=3)
         self.ping, self.pong = self.pong, self.ping
         self.count += 1

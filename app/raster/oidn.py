@@ -1,0 +1,66 @@
+"""Intel Open Image Denoise (`denoise=oidn`, through `pyoidn`, on the CPU): the image shown
+(the running mean while accumulating, else the frame) denoised with the raster G-buffer's
+albedo and normal as auxiliary images. Runs on the GL thread: the three images are read back,
+filtered, and the result uploaded in place of the accumulated image."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import UserError
+from core.options import opt, register_group
+from core.passes import Pass
+
+
+@dataclass
+class OidnOptions:
+    quality: str = opt("high", "OIDN's filter quality (fast is several times quicker, a little softer)",
+                       choices=("high", "balanced", "fast"))
+
+
+register_group("oidn", OidnOptions)
+
+
+def _read(tex) -> np.ndarray:
+    """A GL float texture as (H, W, channels) float32, rows as GL keeps them."""
+    w, h = tex.size
+    return np.frombuffer(tex.read(), np.float32).reshape(h, w, tex.components)
+
+
+class OidnPass(Pass):
+    name = "oidn"
+    options = OidnOptions
+    reads = ("accumulated", "g_albedo", "g_normal", "g_face")
+    writes = ("accumulated",)
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.out = None
+
+    def execute(self, frame) -> None:
+        try:
+            import pyoidn
+        except ImportError as e:  # a declared dependency: only a broken install lacks it
+            raise UserError(f"denoise=oidn needs the pyoidn package ({e})") from None
+        quality = frame.options.group("oidn").quality
+        with frame.profiler.cpu("oidn"):
+            color = np.ascontiguousarray(np.maximum(_read(frame.channels["accumulated"])[..., :3], 0.0))
+            covered = _read(frame.channels["g_face"])[..., 3:4] > 0  # no surface: no albedo, no normal
+            albedo = np.ascontiguousarray(np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) * covered)
+            normal = np.ascontiguousarray(_read(frame.channels["g_normal"])[..., :3] * covered)
+            out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
+            w, h = frame.width, frame.height
+            if self.out is None or self.out.size != (w, h):
+                if self.out is not None:
+                    self.out.release()
+                self.out = self.ctx.texture((w, h), 4, dtype="f4")  # RGBA, as the accumulated image
+            rgba = np.ones((h, w, 4), np.float32)
+            rgba[..., :3] = out
+            self.out.write(rgba.tobytes())
+        frame.channels["accumulated"] = self.out
+
+    def release(self) -> None:
+        if self.out is not None:
+            self.out.release()
+            self.out = None

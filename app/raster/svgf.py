@@ -1,0 +1,111 @@
+"""SVGF denoiser (`denoise=svgf`): spatio-temporal variance-guided filtering (Schied et al. 2017)
+of a ray-traced pass's radiance, as GL passes on the raster G-buffer, so it serves every
+backend: temporal accumulation of the lighting demodulated by albedo through the motion
+vectors, with disocclusion tests (shaders/svgf_temporal.frag), per-pixel variance from the
+temporal moments or, for a short history, from the neighbours (svgf_variance.frag), then
+`iterations` a-trous passes with edge-stopping on depth, normal and luminance
+(svgf_atrous.frag); the first one's output is the next frame's history, the last multiplies
+the albedo back."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from app.gl_context import bind_channels, fullscreen, set_uniform
+from app.raster.targets import Targets
+from core.options import opt, register_group
+from core.passes import Pass
+
+GBUFFER = ("g_position", "g_normal", "g_albedo", "g_face")
+
+
+@dataclass
+class SvgfOptions:
+    iterations: int = opt(3, "a-trous iterations (5 x 5 taps, 2^i apart: 3 reach 14 pixels; the paper used 5, which "
+                          "blurred the built-in scenes' lighting more than it removed noise)", 1, 8)
+    alpha: float = opt(0.2, "weight of the new frame in the temporal accumulation (at least)", 0.01, 1.0)
+    moments_alpha: float = opt(0.2, "weight of the new frame in the luminance moments (at least)", 0.01, 1.0)
+    phi_color: float = opt(4.0, "luminance edge-stopping, in standard deviations", 0.1, 1000.0)
+    phi_normal: float = opt(128.0, "normal edge-stopping exponent", 1.0, 1024.0)
+    phi_depth: float = opt(1.0, "depth edge-stopping, in 1 % of the depth per a-trous step", 0.01, 100.0)
+
+
+register_group("svgf", SvgfOptions)
+
+
+class SvgfPass(Pass):
+    """The radiance of the frame, filtered; history kept from frame to frame (not reset by
+    camera motion: that is what the reprojection is for)."""
+
+    name = "svgf"
+    options = SvgfOptions
+    reads = ("radiance", "g_position", "g_normal", "g_albedo", "g_face", "g_motion")
+    writes = ("radiance",)
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.temporal = Targets(ctx, {"color": (4, "f4"), "moments": (4, "f4")})
+        self.history = Targets(ctx, {"color": (4, "f4"), "moments": (4, "f4"), "position": (4, "f4"),
+                                     "normal": (4, "f4")})
+        self.variance = Targets(ctx, {"c": (4, "f4")})
+        self.ping = Targets(ctx, {"c": (4, "f4")})
+        self.pong = Targets(ctx, {"c": (4, "f4")})
+        self.out = Targets(ctx, {"c": (4, "f4")})
+        self.valid = False
+        self.inputs = None  # what the history was made under: mode, options and scene
+
+    def set_scene(self, scene) -> None:
+        self.valid = False
+
+    def reset(self) -> None:
+        self.valid = False
+
+    def execute(self, frame) -> None:
+        opts = frame.options.group("svgf")
+        w, h = frame.width, frame.height
+        inputs = (frame.mode, frame.options.state(), id(frame.scene))
+        if self.history.size != (w, h) or inputs != self.inputs:  # another image: no history to reuse
+            self.valid, self.inputs = False, inputs
+        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out):
+            t.ensure(w, h)
+        with frame.profiler.gpu(self.ctx, "svgf"):
+            prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
+            self._draw(self.temporal, prog, vao, frame, ("radiance",) + GBUFFER + ("g_motion",), {
+                "prev_color": self.history["color"], "prev_moments": self.history["moments"],
+                "prev_position": self.history["position"], "prev_normal": self.history["normal"]},
+                has_history=int(self.valid), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha))
+            prog, vao = fullscreen(self.ctx, "svgf_variance.frag")
+            self._draw(self.variance, prog, vao, frame, ("g_position", "g_normal", "g_face"), {
+                "color": self.temporal["color"], "moments": self.temporal["moments"]},
+                phi_normal=float(opts.phi_normal))
+            source = self.variance["c"]
+            prog, vao = fullscreen(self.ctx, "svgf_atrous.frag")
+            n = int(opts.iterations)
+            for i in range(n):
+                last = i == n - 1
+                target = self.out if last else (self.ping if i % 2 == 0 else self.pong)
+                self._draw(target, prog, vao, frame, GBUFFER + ("radiance",), {"color": source},
+                           step=1 << i, phi_color=float(opts.phi_color), phi_normal=float(opts.phi_normal),
+                           phi_depth=float(opts.phi_depth), remodulate=int(last))
+                source = target["c"]
+                if i == 0:  # what the next frame reprojects: the first iteration's lighting
+                    keep, kvao = fullscreen(self.ctx, "svgf_history.frag")
+                    first = self.variance["c"] if last else source  # one iteration: its input
+                    self._draw(self.history, keep, kvao, frame, ("g_position", "g_normal", "g_face"), {
+                        "filtered": first, "color": self.temporal["color"], "moments": self.temporal["moments"]})
+        self.valid = True
+        frame.channels["radiance"] = self.out["c"]
+
+    def _draw(self, target, prog, vao, frame, channels, textures: dict, **uniforms) -> None:
+        target.fbo.use()
+        target.fbo.viewport = (0, 0, frame.width, frame.height)
+        bind_channels(prog, frame, channels)
+        for unit, (name, tex) in enumerate(textures.items(), start=len(channels)):
+            tex.use(unit)
+            set_uniform(prog, name, unit)
+        for name, value in uniforms.items():
+            set_uniform(prog, name, value)
+        vao.render(vertices=3)
+
+    def release(self) -> None:
+        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out):
+            t.release()
