@@ -272,9 +272,9 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
         n = first["frames"]
         dh = ["scene", "config", "denoiser ms", "FLIP 1 raw frame", f"FLIP {n} raw frames",
               f"FLIP denoised (frame {n})", f"denoised ≤ {n} raw"]
-        qw, qh = s["quality_size"]
+        size = "×".join(str(v) for v in s["quality_size"])
         md += ["## Denoisers", "", "Each pass's image against the same pass converged over "
-               f"{first['converged_frames']} accumulated frames (mean FLIP, {qw}×{qh}): one raw frame, {n} "
+               f"{first['converged_frames']} accumulated frames (mean FLIP, {size}): one raw frame, {n} "
                f"accumulated raw frames, and the {n}th frame of a still camera denoised without accumulation (SVGF's "
                "history built over the frames before; OIDN filters each frame alone). The denoiser's time is its own "
                f"pass at {s['size'][0]}×{s['size'][1]}.", ""] + _table(dh, drows) + [""]

@@ -16,10 +16,12 @@ POINT_ROWS = 9
 # sun's angular radius, 1 for a sun, radiance (intensity, or a sun's irradiance)
 POSITION, TO_SUN, CONE_COS, CONE_SCALE, SUN_COS, IS_SUN, RADIANCE = 0, 3, 6, 7, 8, 9, 10
 # an emitting triangle's row: a vertex, the two edges from it, the face normal, Le x area /
-# the pick's probability within its cluster, 1 if it emits from both sides
-VERTEX, EDGE1, EDGE2, FACE_NORMAL, EMISSION, TWO_SIDED = 0, 3, 6, 9, 12, 15
-LIGHT_ROW = 16
+# the pick's probability within its cluster, 1 if it emits from both sides, and the density of
+# its points among its cluster's (the pick's probability / area: multiple importance sampling)
+VERTEX, EDGE1, EDGE2, FACE_NORMAL, EMISSION, TWO_SIDED, AREA_PDF = 0, 3, 6, 9, 12, 15, 16
+LIGHT_ROW = 17
+GPU_LIGHT_ROW = 16  # the columns the Slang backend uploads (its rows are four float4)
 
 # a picked light's row (raygen._gather_picked) adds: 1 / the pick's probability, 1 for an emitter
-INV_PROB, IS_EMITTER = 16, 17
-PICKED_ROWS = 18
+INV_PROB, IS_EMITTER = 17, 18
+PICKED_ROWS = 19

@@ -84,8 +84,15 @@ class LightSet:
         if c_tri.size:
             rows[:, layout.EMISSION:layout.EMISSION + 3] = np.concatenate(le) * (data.tri_area[c_tri] / c_pmf)[:, None]
             rows[:, layout.TWO_SIDED] = np.concatenate(double)
+            rows[:, layout.AREA_PDF] = c_pmf / np.maximum(data.tri_area[c_tri], 1e-30)
         self.analytic = (kind, pos, d.astype(np.float32), rad, cos_out, self.spot_scale, f32(np.cos(ang), (-1,)),
                          self.lum)  # suns: the cosine of their angular radius
+        # per triangle of the scene: the light (index among all lights) whose cluster holds it, or -1
+        self.tri_light = np.full(len(data.indices), -1, np.int64)
+        for j, t in enumerate(tris):
+            self.tri_light[t] = self.count_analytic + j
+        self.tri_row = np.full(len(data.indices), -1, np.int64)  # and its row of `emitters`
+        self.tri_row[c_tri] = np.arange(c_tri.size)
         self.emitters = (np.asarray(start, np.int64), rows,
                          f32(np.concatenate(keep) if keep else [], (-1,)),
                          np.concatenate(alias).astype(np.int32) if alias else np.zeros(0, np.int32))

@@ -33,6 +33,7 @@ from rt.embree import rtcore as embree
 from rt.embree.brdf import SUM_EDVW, add_light
 from rt.embree.kernels import bits_float, float_bits, pixel_key, take_next, uniform
 from rt.layout import (
+    AREA_PDF,
     CONE_COS,
     CONE_SCALE,
     EDGE1,
@@ -66,6 +67,7 @@ ZERO, HALF, ONE, TWO = F(0.0), F(0.5), F(1.0), F(2.0)
 TAU = F(2.0 * math.pi)
 S3, S5, S7, S9, S11 = F(-1 / 6), F(1 / 120), F(-1 / 5040), F(1 / 362880), F(-1 / 39916800)
 TINY = F(1e-12)
+INV_PI = F(1.0 / math.pi)
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -101,6 +103,14 @@ def _nudge(p, n):
         return p + FLOAT_SCALE * F(n)
     of = np.int32(INT_SCALE * F(n))
     return bits_float(np.int32(float_bits(p) + (-of if p < ZERO else of)))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def mis_weight(p_this, p_other):
+    """The power heuristic (Veach): the weight of a sample drawn with density p_this where
+    another strategy would have drawn it with density p_other."""
+    a, b = p_this * p_this, p_other * p_other
+    return a / (a + b) if a + b > ZERO else ZERO
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -513,12 +523,14 @@ def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
+def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, mis, dx, dy, dz, dd, er, eg, eb):
     """The shadow ray of every point towards the light it picked (rows S, _gather_picked),
     divided by the pick's probability: one branch-free loop over unit-stride rows that
     computes a sun's cone sample (_sun), a point or spot light's direction (its distance and
     glTF's squared linear ramp, as _analytic_step) and a point on an emitting triangle
-    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies."""
+    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies.
+    mis: an emitter's sample is weighted by the power heuristic against cosine-weighted
+    sampling of the same direction (mis_weight; the reference path tracer's other half)."""
     for b in range(nb):
         # a sun: a direction in its cone
         ax, ay, az = S[TO_SUN, b], S[TO_SUN + 1, b], S[TO_SUN + 2, b]
@@ -538,6 +550,9 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx,
         inv = S[INV_PROB, b]
         if S[IS_EMITTER, b] > ZERO:
             x, y, z, dist = mx, my, mz, e2 * ri * F(1.0 - 1e-4)
+            if mis:  # the light's density of this direction: pick x point on the triangle x d^2 / cos_light
+                p_light = S[AREA_PDF, b] / (inv * g) if inv * g > ZERO else ZERO
+                inv *= mis_weight(p_light, max(nx[b] * mx + ny[b] * my + nz[b] * mz, ZERO) * INV_PI)
             ex, ey, ez = S[EMISSION, b] * g * inv, S[EMISSION + 1, b] * g * inv, S[EMISSION + 2, b] * g * inv
         else:
             x = ux if is_sun else qx
@@ -564,7 +579,7 @@ def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, e
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weights, origin, direction, tmax,
-                          e, idx, tr, acc):
+                          e, idx, tr, acc, mis=False):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
     lights); packed (or traced into acc if tr has a scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch.
@@ -609,9 +624,41 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weig
                     for i in range(nb):
                         pick[i] += ONE if w[k, i] <= target[i] else ZERO
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
-            _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
+            _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, mis, dx, dy, dz, dd, er, eg, eb)
         m = _emit(G, g0, b0, nb, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
     return m
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def light_pdf(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights, out):
+    """out[i]: the density (per solid angle) with which one_light_shadow_rays, from point P[i]
+    (shading normal N[i]), draws direction D[i] towards the emitter that direction hits (triangle
+    prim[i], t[i] away): the pick of its light x the triangle's AREA_PDF x t^2 / cos_light; 0 where
+    the triangle is no light's; -1 behind a one-sided emitter (which sends no light that way)."""
+    n = P.shape[0]
+    w = np.empty((max(n_lights, 1), BLOCK), np.float32)
+    run = np.empty(BLOCK, np.float32)
+    cols = np.empty((6, BLOCK), np.float32)
+    for b0 in range(0, n, BLOCK):
+        nb = min(BLOCK, n - b0)
+        for i in range(nb):
+            for a in range(3):
+                cols[a, i], cols[3 + a, i] = P[b0 + i, a], N[b0 + i, a]
+        _light_weights(cols[0], cols[1], cols[2], cols[3], cols[4], cols[5], nb, guide, w, run)
+        for i in range(nb):
+            k, r = tri_light[prim[b0 + i]], tri_row[prim[b0 + i]]
+            out[b0 + i] = ZERO
+            if k < 0 or run[i] <= ZERO:
+                continue
+            dx, dy, dz = D[b0 + i, 0], D[b0 + i, 1], D[b0 + i, 2]
+            cl = -(rows[r, FACE_NORMAL] * dx + rows[r, FACE_NORMAL + 1] * dy + rows[r, FACE_NORMAL + 2] * dz)
+            cl = abs(cl) if rows[r, TWO_SIDED] > ZERO else cl
+            if cl <= ZERO:
+                out[b0 + i] = -ONE
+                continue
+            pick = (w[k, i] - (w[k - 1, i] if k > 0 else ZERO)) / run[i]
+            out[b0 + i] = pick * rows[r, AREA_PDF] * t[b0 + i] * t[b0 + i] / cl
+    return out
 
 
 @njit(cache=True, error_model="numpy", nogil=True)

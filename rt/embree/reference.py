@@ -3,20 +3,31 @@
 Multi-bounce, with the scene's surface model (option brdf). The study's (trace_paths): diffuse
 + mirror-like specular consistent with the passes: surfaces smoother than
 `reflections.roughness_threshold` reflect with Schlick's Fresnel probability and are diffuse
-otherwise; next-event estimation (one light sample + shadow ray) at diffuse vertices; emission
-counted at the camera and after mirror bounces (where NEE cannot reach). glTF's
-(trace_paths_ggx): GGX and Lambert lobes, below. Russian roulette after `reference.rr_start`
-bounces."""
+otherwise; at diffuse vertices next-event estimation (one light sample + shadow ray) and the
+cosine-weighted bounce both reach emitting triangles, combined by multiple importance sampling
+(the power heuristic: raygen.mis_weight, shading.emission_weight), so that a small bright
+emitter seen close by does not make fireflies; emission counted in full at the camera and
+after mirror bounces (where NEE cannot reach). glTF's (trace_paths_ggx): GGX and Lambert lobes,
+below, with NEE alone for emitters. Russian roulette after `reference.rr_start` bounces."""
 from __future__ import annotations
 
 import numpy as np
 
 from rt.embree import brdf
 from rt.embree.kernels import uniforms
-from rt.embree.shading import INV_PI, LUMA, cosine_directions, direct_one, fresnel_schlick, mirror, trace_from
+from rt.embree.shading import (
+    INV_PI,
+    LUMA,
+    cosine_directions,
+    direct_one,
+    emission_weight,
+    fresnel_schlick,
+    mirror,
+    trace_from,
+)
 
 
-def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
+def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = True) -> np.ndarray:
     """Every step runs even on no points, so each pixel draws the same numbers however it is chunked."""
     thr = cf.options.get("reflections.roughness_threshold")
     n = len(s)
@@ -33,7 +44,7 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
         w_diff = np.where(diff[:, None], (1 - f) / np.maximum(1 - p_spec, 1e-6)[:, None], 0)
         # next-event estimation at diffuse vertices
         di = np.nonzero(diff)[0]
-        e = direct_one(cf.data, cf.tracer, s.take(di), rng.subset(di))
+        e = direct_one(cf.data, cf.tracer, s.take(di), rng.subset(di), mis=mis)
         radiance[alive[di]] += beta[di] * w_diff[di] * s.albedo[di] * INV_PI * e
         if bounce == max_bounces:
             break
@@ -43,27 +54,33 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray
         beta = np.where(spec[:, None], beta * f / np.maximum(p_spec, 1e-6)[:, None], beta * w_diff * s.albedo)
         keep = np.einsum("ij,ij->i", d, s.ng) > 0  # diffuse directions below the true surface carry nothing
         alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, spec, radiance, alive, rng,
-                                                 bounce + 1 >= rr_start)
+                                                 bounce + 1 >= rr_start, mis=mis)
     return radiance
 
 
-def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: bool):
+def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: bool, mis: bool = False):
     """A path step's end, shared by both surface models: Russian roulette (roulette: one number
     per point) among the paths kept, their rays along d traced; where they miss, the
     environment's light times beta goes to their pixels (alive), and where they hit, the hit's
-    emission for paths whose `counts` is set. Returns the paths that go on: (alive, beta,
-    their directions, the surfaces hit, their generators)."""
+    emission for paths whose `counts` is set, and with `mis` for the others (cosine-weighted
+    bounces) weighted against next-event estimation (shading.emission_weight). Returns the
+    paths that go on: (alive, beta, their directions, the surfaces hit, their generators)."""
     if roulette:
         q = np.clip(beta @ LUMA, 0.05, 0.95)
         keep &= rng.next(1)[:, 0] < q
         beta = beta / q[:, None]
     idx = np.nonzero(keep)[0]
-    hit, sh, miss = trace_from(cf.data, cf.tracer, s.take(idx), d[idx])
+    hit, sh, miss, hits = trace_from(cf.data, cf.tracer, s.take(idx), d[idx], with_hits=True)
     m = idx[miss]
     radiance[alive[m]] += beta[m] * cf.environment.radiance(d[m])
     h = idx[hit]
     seen = counts[h]
     radiance[alive[h[seen]]] += beta[h[seen]] * sh.emissive[seen]
+    if mis:
+        other = np.flatnonzero(~seen & (sh.emissive.max(axis=1) > 0))  # emitters a diffuse bounce found
+        if len(other):
+            w = emission_weight(cf.data, s.take(h[other]), d[h[other]], hits.prim[hit[other]], hits.t[hit[other]])
+            radiance[alive[h[other]]] += beta[h[other]] * sh.emissive[other] * w[:, None]
     return alive[h], beta[h], d[h], sh, rng.subset(h)
 
 
@@ -127,6 +144,12 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
 def trace(rf) -> dict:
     out = rf.background()
     bounces, rr = rf.options.get("reference.max_bounces"), rf.options.get("reference.rr_start")
-    paths = trace_paths_ggx if rf.ggx else trace_paths
-    rf.for_chunks(lambda cf: cf.put(out, paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr)), streams=(5,))
+    mis = bool(rf.options.get("reference.mis"))
+    if rf.ggx:
+        def paths(cf):
+            return trace_paths_ggx(cf, cf.s, cf.view, cf.rng(5), bounces, rr)
+    else:
+        def paths(cf):
+            return trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr, mis)
+    rf.for_chunks(lambda cf: cf.put(out, paths(cf)), streams=(5,))
     return {"radiance": out}

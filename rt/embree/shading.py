@@ -127,13 +127,14 @@ def light_rays(lights: LightSet, k: int, G, keys, dim: int, origin, direction, t
 
 
 def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
-                   acc=raygen.NOT_TRACED) -> int:
+                   acc=raygen.NOT_TRACED, mis: bool = False) -> int:
     """One shadow ray per point of G = (rows, first column) (Surface.soa) to a light picked
-    by its estimated contribution, packed, or if scene traced and added to acc."""
+    by its estimated contribution, packed, or if scene traced and added to acc. mis: emitters'
+    samples weighted against cosine-weighted sampling (raygen.mis_weight)."""
     weights = scratch.buffer("light.w", (lights.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
     return raygen.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
                                         lights.data.far, weights, origin, direction, tmax, e,
-                                        idx, rtcore.target(scene), acc)
+                                        idx, rtcore.target(scene), acc, mis)
 
 
 def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int, G) -> None:
@@ -148,11 +149,12 @@ def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int, G) 
 
 
 def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool = True, out=None,
-               G=None) -> np.ndarray:
+               G=None, mis: bool = False) -> np.ndarray:
     """Irradiance x cos from ONE light per point, picked with probability ~ its estimated
     contribution there and divided by that probability: accumulates to every light's sum.
     out: an (N,3) array to write into (zeroed here) instead of a new one, or a GGX accumulator
-    (rt/embree/brdf.py: its sums zeroed here); G: s.soa() if at hand."""
+    (rt/embree/brdf.py: its sums zeroed here); G: s.soa() if at hand; mis: emitters' samples
+    weighted against cosine-weighted sampling (the reference's diffuse vertices)."""
     n = len(s)
     dim = rng.reserve(4)
     total = np.zeros((n, 3), np.float32) if out is None else out
@@ -163,7 +165,7 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     o, d, t, idx, e = rays
     G = s.soa("light.soa") if G is None else G
     scene = tracer.inline_scene() if shadowed else 0  # then the generator traces, adding into total
-    m = one_light_rays(data.lights, G, rng.key, dim, o, d, t, e, idx, scene, total)
+    m = one_light_rays(data.lights, G, rng.key, dim, o, d, t, e, idx, scene, total, mis)
     _gather(tracer, total, rays, m, shadowed, scene, G)
     return total
 
@@ -182,13 +184,31 @@ def fresnel_schlick(s: Surface, view_dir: np.ndarray) -> np.ndarray:
     return (f0 + (1 - f0) * ((1 - cos) ** 5)[:, None]).astype(np.float32)
 
 
-def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray, origins: np.ndarray | None = None):
-    """Trace rays leaving surface points; returns (hit index, surfaces at the hits, miss index)."""
+def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray, origins: np.ndarray | None = None,
+               with_hits: bool = False):
+    """Trace rays leaving surface points; returns (hit index, surfaces at the hits, miss index)
+    and with_hits the Embree hits too (their triangles and distances)."""
     o = data.offset(s, dirs) if origins is None else origins
     hits = tracer.intersect(o, dirs)
     hit = np.flatnonzero(hits.prim >= 0)
     miss = np.flatnonzero(hits.prim < 0)
-    return hit, data.surface(hits, dirs, o, sel=hit), miss
+    out = hit, data.surface(hits, dirs, o, sel=hit), miss
+    return out + (hits,) if with_hits else out
+
+
+def emission_weight(data: SceneData, s: Surface, dirs: np.ndarray, prim: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """For rays drawn cosine-weighted from points s along dirs that hit triangles prim t away,
+    the power heuristic's weight of the emission they find against next-event estimation's
+    drawing of the same direction (raygen.light_pdf; 0 behind a one-sided emitter)."""
+    lights = data.lights
+    p_light = np.empty(len(s), np.float32)
+    if len(s):
+        raygen.light_pdf(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
+                         np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row, lights.emitters[1],
+                         lights.guide, lights.count, p_light)
+    p_bsdf = np.maximum(np.einsum("ij,ij->i", s.n, dirs), 0.0) * INV_PI
+    w = p_bsdf**2 / np.maximum(p_bsdf**2 + p_light**2, 1e-30)
+    return np.where(p_light < 0, 0.0, w).astype(np.float32)
 
 
 def mirror(d: np.ndarray, s: Surface) -> np.ndarray:

@@ -204,7 +204,7 @@ class SlangBackend(Backend):
         if effect == "reference":
             return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
                     "g_max_bounces": int(opts.get("reference.max_bounces")),
-                    "g_rr_start": int(opts.get("reference.rr_start"))}
+                    "g_rr_start": int(opts.get("reference.rr_start")), "g_mis": int(bool(opts.get("reference.mis")))}
         return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
                 "g_depth": int(opts.get("reflections.max_depth")), "g_lit": int(bool(opts.get("reflections.lit"))),
                 "g_glossy": int(bool(opts.get("reflections.glossy")))}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import UserError
+from rt.layout import AREA_PDF, GPU_LIGHT_ROW
 from rt.lights import LightSet
 from rt.mesh import MeshArrays
 
@@ -61,11 +62,14 @@ class DeviceScene:
 
         start, emitter_rows, keep, alias = li.emitters
         self.light_buffers = {
-            "analytic": buffer(rows(li.analytic_rows(), 16).reshape(-1, 4)),
-            "emitters": buffer(rows(emitter_rows, 16).reshape(-1, 4)),
+            "analytic": buffer(rows(li.analytic_rows()[:, :GPU_LIGHT_ROW], 16).reshape(-1, 4)),
+            "emitters": buffer(rows(emitter_rows[:, :GPU_LIGHT_ROW], 16).reshape(-1, 4)),
             "cluster_start": buffer(np.asarray(start, np.int32) if len(start) else np.zeros(1, np.int32)),
             "keep": buffer(keep if len(keep) else np.zeros(1, np.float32)),
             "alias": buffer(np.asarray(alias, np.int32) if len(alias) else np.zeros(1, np.int32)),
+            "area_pdf": buffer(rows(emitter_rows[:, AREA_PDF], 1).ravel()),
+            "tri_light": buffer(np.asarray(li.tri_light, np.int32)),
+            "tri_row": buffer(np.asarray(li.tri_row, np.int32)),
         }
         kind, pos, d, _, cos_out, spot_scale, _, lum = li.analytic
         spot = kind == 1
