@@ -49,12 +49,15 @@ def set_threads(renderer: Renderer, threads: int) -> None:
 def record_frame(renderer: Renderer, camera: Camera, size, pass_name: str) -> list:
     """Render a frame with its rays logged (rt/embree/tracer.py: RayLog), for the replay: the
     log is sized from the frame before, and the frame rendered again with a larger one if the
-    rays did not fit (a frame's random numbers, and so its ray count, vary a little)."""
+    rays did not fit (a frame's random numbers, and so its ray count, vary a little): the same
+    frame, its numbering set back (Renderer.frames_made)."""
     from rt.embree.tracer import RayLog
 
     tracer = renderer.ray_tracing().tracer
     capacity = int(renderer.profiler.counters.get("rays", 0) * 1.25) + 4096
+    number = renderer.frames_made
     while True:
+        renderer.frames_made = number
         tracer.recording = log = RayLog(capacity)
         try:
             renderer.render(camera, *size, pass_name)

@@ -80,7 +80,7 @@ class Renderer:
         self.prev_camera = None
         self.frame: Frame | None = None
         self.seed = 0
-        self.frames_made = 0  # frames since reset(): numbers their random draws and jitter
+        self.frames_made = 0  # frames since reset() or a change but the camera's: their draws and jitter
         # the viewer sets this: a deterministic (raster) frame whose inputs did not change is
         # shown again instead of re-rendered, which keeps the UI responsive on software GL
         self.reuse_static_frames = False
@@ -176,10 +176,12 @@ class Renderer:
             return None  # nothing would change: show the last frame
         moved = False
         if state != self._state:
+            camera_only = self._state is not None and state[:1] + state[2:] == self._state[:1] + self._state[2:]
             # with reproject, a moved camera carries the mean on (app/raster/reproject.py): only
             # the count of still frames restarts
-            moved = (bool(self.options.get("reproject")) and self._state is not None
-                     and state[:1] + state[2:] == self._state[:1] + self._state[2:])
+            moved = bool(self.options.get("reproject")) and camera_only
+            if not camera_only:  # another image: numbered afresh, as a new renderer's would be
+                self.frames_made = 0
             self.accumulation.reset()
             self._state = state
         self.profiler.begin_frame()
@@ -190,8 +192,9 @@ class Renderer:
         traced = [n for n in names if self.passes[n].device == "rt"]
         first = names.index(traced[0]) if traced else len(names)
         last = names.index(traced[-1]) + 1 if traced else len(names)
-        # frames number their random draws from the last reset(), on through restarts of the mean, so
-        # that each frame's noise is new (a moving camera's too, a denoiser's input)
+        # frames number their random draws from the last change of anything but the camera, on
+        # through restarts of the mean, so that each frame's noise is new (a moving camera's, a
+        # denoiser's input) and a still image is the one a fresh renderer makes
         index = self.frames_made
         self.frames_made += 1
         frame = Frame(self.ctx, self.scene, self.gpu, camera, self.prev_camera or camera, width, height, self.options,

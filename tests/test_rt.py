@@ -410,7 +410,7 @@ def test_recorded_frame_logs_every_ray_it_traces(gl, pass_name, sets):
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     images = []
     for recorded in (False, True):
-        r = make(gl, scene, sets + ("accumulate=false",))  # every frame draws the same numbers
+        r = make(gl, scene, sets + ("accumulate=false",))  # the second frame, recorded or not, is frame 1
         tracer = r.ray_tracing().tracer
         r.render(cam, 64, 36, pass_name)  # the frame before: sizes the log
         if recorded:
