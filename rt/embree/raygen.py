@@ -523,14 +523,12 @@ def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
-def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, mis, dx, dy, dz, dd, er, eg, eb):
+def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
     """The shadow ray of every point towards the light it picked (rows S, _gather_picked),
     divided by the pick's probability: one branch-free loop over unit-stride rows that
     computes a sun's cone sample (_sun), a point or spot light's direction (its distance and
     glTF's squared linear ramp, as _analytic_step) and a point on an emitting triangle
-    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies.
-    mis: an emitter's sample is weighted by the power heuristic against cosine-weighted
-    sampling of the same direction (mis_weight; the reference path tracer's other half)."""
+    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies."""
     for b in range(nb):
         # a sun: a direction in its cone
         ax, ay, az = S[TO_SUN, b], S[TO_SUN + 1, b], S[TO_SUN + 2, b]
@@ -550,9 +548,6 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, mis
         inv = S[INV_PROB, b]
         if S[IS_EMITTER, b] > ZERO:
             x, y, z, dist = mx, my, mz, e2 * ri * F(1.0 - 1e-4)
-            if mis:  # the light's density of this direction: pick x point on the triangle x d^2 / cos_light
-                p_light = S[AREA_PDF, b] / (inv * g) if inv * g > ZERO else ZERO
-                inv *= mis_weight(p_light, max(nx[b] * mx + ny[b] * my + nz[b] * mz, ZERO) * INV_PI)
             ex, ey, ez = S[EMISSION, b] * g * inv, S[EMISSION + 1, b] * g * inv, S[EMISSION + 2, b] * g * inv
         else:
             x = ux if is_sun else qx
@@ -562,6 +557,29 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, mis
             att *= inv
             ex, ey, ez = S[RADIANCE, b] * att, S[RADIANCE + 1, b] * att, S[RADIANCE + 2, b] * att
         _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb):
+    """After _picked_rays, for multiple importance sampling (the reference path tracer's): each
+    emitter's sample weighted by the power heuristic against cosine-weighted sampling of its
+    direction. The light's density of that direction: the pick x the triangle's AREA_PDF x
+    d^2 / cos_light (the point on it found again from the direction and the triangle's plane).
+    Its own loop, so that _picked_rays stays the branch-free one every pass runs."""
+    for b in range(nb):
+        if not S[IS_EMITTER, b] > ZERO or not S[INV_PROB, b] > ZERO:
+            continue
+        fx, fy, fz = S[FACE_NORMAL, b], S[FACE_NORMAL + 1, b], S[FACE_NORMAL + 2, b]
+        cl = -(fx * dx[b] + fy * dy[b] + fz * dz[b])
+        cl = abs(cl) if S[TWO_SIDED, b] > ZERO else cl
+        if not cl > ZERO:
+            continue
+        # distance to the triangle's plane along the direction
+        t = ((S[VERTEX, b] - px[b]) * fx + (S[VERTEX + 1, b] - py[b]) * fy + (S[VERTEX + 2, b] - pz[b]) * fz) / (
+            fx * dx[b] + fy * dy[b] + fz * dz[b])
+        p_light = S[AREA_PDF, b] / S[INV_PROB, b] * t * t / cl
+        w = mis_weight(p_light, max(nx[b] * dx[b] + ny[b] * dy[b] + nz[b] * dz[b], ZERO) * INV_PI)
+        er[b], eg[b], eb[b] = er[b] * w, eg[b] * w, eb[b] * w
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
@@ -624,7 +642,9 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weig
                     for i in range(nb):
                         pick[i] += ONE if w[k, i] <= target[i] else ZERO
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
-            _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, mis, dx, dy, dz, dd, er, eg, eb)
+            _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
+            if mis:
+                _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb)
         m = _emit(G, g0, b0, nb, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
     return m
 
