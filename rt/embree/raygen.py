@@ -560,24 +560,36 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx,
 
 
 @njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+def _emitter_density(fx, fy, fz, two_sided, area_pdf, pick, t, dx, dy, dz):
+    """The density (per solid angle) with which a light sample whose light was picked with
+    probability `pick` draws direction d towards a point t away on an emitting triangle (face
+    normal f, its AREA_PDF): pick x AREA_PDF x t^2 / cos_light; -1 where a one-sided triangle
+    faces away (it sends no light that way)."""
+    cl = -(fx * dx + fy * dy + fz * dz)
+    cl = abs(cl) if two_sided > ZERO else cl
+    if not cl > ZERO:
+        return -ONE
+    return pick * area_pdf * t * t / cl
+
+
+@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
 def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb):
     """After _picked_rays, for multiple importance sampling (the reference path tracer's): each
     emitter's sample weighted by the power heuristic against cosine-weighted sampling of its
-    direction. The light's density of that direction: the pick x the triangle's AREA_PDF x
-    d^2 / cos_light (the point on it found again from the direction and the triangle's plane).
-    Its own loop, so that _picked_rays stays the branch-free one every pass runs."""
+    direction. The light's density of that direction: _emitter_density, the point on the
+    triangle found again from the direction and the triangle's plane. Its own loop, so that
+    _picked_rays stays the branch-free one every pass runs."""
     for b in range(nb):
         if not S[IS_EMITTER, b] > ZERO or not S[INV_PROB, b] > ZERO:
             continue
         fx, fy, fz = S[FACE_NORMAL, b], S[FACE_NORMAL + 1, b], S[FACE_NORMAL + 2, b]
-        cl = -(fx * dx[b] + fy * dy[b] + fz * dz[b])
-        cl = abs(cl) if S[TWO_SIDED, b] > ZERO else cl
-        if not cl > ZERO:
-            continue
         # distance to the triangle's plane along the direction
         t = ((S[VERTEX, b] - px[b]) * fx + (S[VERTEX + 1, b] - py[b]) * fy + (S[VERTEX + 2, b] - pz[b]) * fz) / (
             fx * dx[b] + fy * dy[b] + fz * dz[b])
-        p_light = S[AREA_PDF, b] / S[INV_PROB, b] * t * t / cl
+        p_light = _emitter_density(fx, fy, fz, S[TWO_SIDED, b], S[AREA_PDF, b], ONE / S[INV_PROB, b], t, dx[b], dy[b],
+                                   dz[b])
+        if p_light < ZERO:
+            continue
         w = mis_weight(p_light, max(nx[b] * dx[b] + ny[b] * dy[b] + nz[b] * dz[b], ZERO) * INV_PI)
         er[b], eg[b], eb[b] = er[b] * w, eg[b] * w, eb[b] * w
 
@@ -650,11 +662,11 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weig
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def light_pdf(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights, out):
-    """out[i]: the density (per solid angle) with which one_light_shadow_rays, from point P[i]
-    (shading normal N[i]), draws direction D[i] towards the emitter that direction hits (triangle
-    prim[i], t[i] away): the pick of its light x the triangle's AREA_PDF x t^2 / cos_light; 0 where
-    the triangle is no light's; -1 behind a one-sided emitter (which sends no light that way)."""
+def emission_weights(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights, out):
+    """out[i]: the power heuristic's weight of the emission found along D[i], drawn
+    cosine-weighted about N[i] from P[i], on triangle prim[i] t[i] away, against
+    one_light_shadow_rays drawing the same direction (its light's pick x _emitter_density; a
+    triangle that is no light's is never drawn so: weight 1); 0 behind a one-sided emitter."""
     n = P.shape[0]
     w = np.empty((max(n_lights, 1), BLOCK), np.float32)
     run = np.empty(BLOCK, np.float32)
@@ -666,18 +678,16 @@ def light_pdf(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights, out):
                 cols[a, i], cols[3 + a, i] = P[b0 + i, a], N[b0 + i, a]
         _light_weights(cols[0], cols[1], cols[2], cols[3], cols[4], cols[5], nb, guide, w, run)
         for i in range(nb):
-            k, r = tri_light[prim[b0 + i]], tri_row[prim[b0 + i]]
-            out[b0 + i] = ZERO
-            if k < 0 or run[i] <= ZERO:
-                continue
-            dx, dy, dz = D[b0 + i, 0], D[b0 + i, 1], D[b0 + i, 2]
-            cl = -(rows[r, FACE_NORMAL] * dx + rows[r, FACE_NORMAL + 1] * dy + rows[r, FACE_NORMAL + 2] * dz)
-            cl = abs(cl) if rows[r, TWO_SIDED] > ZERO else cl
-            if cl <= ZERO:
-                out[b0 + i] = -ONE
-                continue
-            pick = (w[k, i] - (w[k - 1, i] if k > 0 else ZERO)) / run[i]
-            out[b0 + i] = pick * rows[r, AREA_PDF] * t[b0 + i] * t[b0 + i] / cl
+            j = b0 + i
+            k, r = tri_light[prim[j]], tri_row[prim[j]]
+            dx, dy, dz = D[j, 0], D[j, 1], D[j, 2]
+            p_light = ZERO
+            if k >= 0 and run[i] > ZERO:
+                pick = (w[k, i] - (w[k - 1, i] if k > 0 else ZERO)) / run[i]
+                p_light = _emitter_density(rows[r, FACE_NORMAL], rows[r, FACE_NORMAL + 1], rows[r, FACE_NORMAL + 2],
+                                           rows[r, TWO_SIDED], rows[r, AREA_PDF], pick, t[j], dx, dy, dz)
+            p_bsdf = max(N[j, 0] * dx + N[j, 1] * dy + N[j, 2] * dz, ZERO) * INV_PI
+            out[j] = ZERO if p_light < ZERO else mis_weight(p_bsdf, p_light)
     return out
 
 

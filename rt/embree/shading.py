@@ -199,16 +199,14 @@ def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray, or
 def emission_weight(data: SceneData, s: Surface, dirs: np.ndarray, prim: np.ndarray, t: np.ndarray) -> np.ndarray:
     """For rays drawn cosine-weighted from points s along dirs that hit triangles prim t away,
     the power heuristic's weight of the emission they find against next-event estimation's
-    drawing of the same direction (raygen.light_pdf; 0 behind a one-sided emitter)."""
+    drawing of the same direction (raygen.emission_weights; 0 behind a one-sided emitter)."""
     lights = data.lights
-    p_light = np.empty(len(s), np.float32)
+    w = np.empty(len(s), np.float32)
     if len(s):
-        raygen.light_pdf(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
-                         np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row, lights.emitters[1],
-                         lights.guide, lights.count, p_light)
-    p_bsdf = np.maximum(np.einsum("ij,ij->i", s.n, dirs), 0.0) * INV_PI
-    w = p_bsdf**2 / np.maximum(p_bsdf**2 + p_light**2, 1e-30)
-    return np.where(p_light < 0, 0.0, w).astype(np.float32)
+        raygen.emission_weights(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
+                                np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row,
+                                lights.emitters[1], lights.guide, lights.count, w)
+    return w
 
 
 def mirror(d: np.ndarray, s: Surface) -> np.ndarray:
