@@ -3,6 +3,7 @@
 // frames (alpha) and blends the history texels reproject.frag found on its surface (bilinear
 // weights among the valid ones), then the new frame with weight 1 / count; a pixel with no valid
 // history restarts from this frame. Counts stop at max_count (0: never).
+#include "reproject_common.glsl"
 in vec2 uv;
 uniform sampler2D current;
 uniform sampler2D history;      // rgb: mean, a: frames in it
@@ -24,9 +25,8 @@ void main() {
         for (int k = 0; k < 4; k++) {
             if ((mask & (1 << k)) == 0)
                 continue;
-            ivec2 o = ivec2(k & 1, k >> 1);
-            float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y);
-            hist += w * texelFetch(history, clamp(base + o, ivec2(0), size - 1), 0);
+            float w = tap_weight(k, f);
+            hist += w * texelFetch(history, clamp(base + ivec2(k & 1, k >> 1), ivec2(0), size - 1), 0);
             wsum += w;
         }
     }

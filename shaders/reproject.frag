@@ -1,8 +1,9 @@
 #version 430
 // Reprojection of the accumulated history (option reproject): for each pixel, where its point
 // was in the previous frame (through the motion vectors) and which of the four texels around
-// that place saw the same surface (its plane within 1 % of the depth, the point within 5 %,
-// normals within ~25 degrees). The accumulation pass (accumulate_reproject.frag) blends those.
+// that place saw the same surface (reproject_common.glsl). The accumulation pass
+// (accumulate_reproject.frag) blends those.
+#include "reproject_common.glsl"
 in vec2 uv;
 uniform sampler2D g_position;   // xyz, w: linear depth
 uniform sampler2D g_normal;
@@ -26,19 +27,13 @@ void main() {
     }
     vec4 pos = texelFetch(g_position, px, 0);
     vec3 n = texelFetch(g_normal, px, 0).xyz;
-    vec2 prev = gl_FragCoord.xy - texelFetch(g_motion, px, 0).xy - 0.5;
+    vec2 prev = previous_texel(gl_FragCoord.xy, texelFetch(g_motion, px, 0).xy);
     ivec2 base = ivec2(floor(prev));
     float mask = 0.0;
     for (int k = 0; k < 4; k++) {
         ivec2 q = base + ivec2(k & 1, k >> 1);
-        if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
-            continue;
-        vec4 pp = texelFetch(prev_position, q, 0);
-        vec3 pn = texelFetch(prev_normal, q, 0).xyz;
-        if (pp.w <= 0.0 || abs(dot(pp.xyz - pos.xyz, n)) > 0.01 * pos.w || length(pp.xyz - pos.xyz) > 0.05 * pos.w
-            || dot(pn, n) < 0.9)
-            continue;
-        mask += float(1 << k);
+        if (inside(q, size) && same_surface(texelFetch(prev_position, q, 0), texelFetch(prev_normal, q, 0).xyz, pos, n))
+            mask += float(1 << k);
     }
     where = vec4(prev, mask, mask > 0.0 ? 1.0 : 0.0);
 }

@@ -1,9 +1,9 @@
 #version 430
 // SVGF, step 1: temporal accumulation of the demodulated lighting and of its first two
 // luminance moments, through the motion vectors. The previous frame's four texels around the
-// reprojected point are each kept only where they saw the same surface (its plane within 1 %
-// of the depth, the point within 5 %, normals within ~25 degrees): disocclusions restart at the
-// current sample.
+// reprojected point are each kept only where they saw the same surface (reproject_common.glsl:
+// same_surface, as the reprojected accumulation tests it): disocclusions restart at the current
+// sample.
 #include "svgf_common.glsl"
 in vec2 uv;
 uniform sampler2D radiance;     // this frame's noisy radiance
@@ -35,7 +35,7 @@ void main() {
     vec3 n = texelFetch(g_normal, px, 0).xyz;
     vec3 illum = rad / demod_albedo(texelFetch(g_albedo, px, 0).rgb);
     float l = luma(illum);
-    vec2 prev = gl_FragCoord.xy - texelFetch(g_motion, px, 0).xy - 0.5;  // texel-centre coordinates
+    vec2 prev = previous_texel(gl_FragCoord.xy, texelFetch(g_motion, px, 0).xy);
     ivec2 base = ivec2(floor(prev));
     vec2 f = prev - vec2(base);
     vec4 sum_color = vec4(0.0);
@@ -43,16 +43,11 @@ void main() {
     float sum_w = 0.0;
     if (has_history != 0) {
         for (int k = 0; k < 4; k++) {
-            ivec2 o = ivec2(k & 1, k >> 1);
-            ivec2 q = base + o;
-            if (!inside(q, size))
+            ivec2 q = base + ivec2(k & 1, k >> 1);
+            if (!inside(q, size) || !same_surface(texelFetch(prev_position, q, 0), texelFetch(prev_normal, q, 0).xyz,
+                                                  pos, n))
                 continue;
-            vec4 pp = texelFetch(prev_position, q, 0);
-            vec3 pn = texelFetch(prev_normal, q, 0).xyz;
-            if (pp.w <= 0.0 || abs(dot(pp.xyz - pos.xyz, n)) > 0.01 * pos.w || length(pp.xyz - pos.xyz) > 0.05 * pos.w
-                || dot(pn, n) < 0.9)
-                continue;
-            float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y);
+            float w = tap_weight(k, f);
             sum_color += w * texelFetch(prev_color, q, 0);
             sum_moments += w * texelFetch(prev_moments, q, 0).rg;
             sum_w += w;
