@@ -57,6 +57,11 @@ def draw_option(imgui, options, key: str) -> bool:
     return False
 
 
+def frame_wide_keys(options) -> list[str]:
+    """The options of every mode (the frame-wide group, app/options.py: GlobalOptions), in its order."""
+    return [k for k in options.keys() if "." not in k]
+
+
 def option_keys_for(options, pass_name: str) -> list[str]:
     """The option keys of the mode's graph (app/graph.py): the mode's own, then its passes'."""
     return [k for g in option_groups(pass_name) for k in options.keys() if k.startswith(g + ".")]
@@ -122,7 +127,7 @@ class Panel:
             if changed:
                 v.pass_name = ALL[idx]
             self._compare(imgui)
-            for key in ("exposure", "env", "brdf", "accumulate", "max_frames", "gbuffer", "tracer"):
+            for key in frame_wide_keys(v.options):
                 self._option(imgui, key)
             _, v.resolution_scale = imgui.slider_float("resolution scale", v.resolution_scale, 0.25, 1.0, "%.2f")
             _, v.motion_scale = imgui.slider_float("scale while moving", v.motion_scale, 0.25, 1.0, "%.2f")

@@ -81,3 +81,16 @@ def test_panel_shows_the_option_groups_of_the_modes_graph():
     assert option_groups("reference") == ["reference", "reflections", "svgf", "oidn"]  # and the denoisers'
     assert option_groups("gi") == ["gi", "svgf", "oidn"] and option_groups("forward") == ["forward"]
     assert option_groups("albedo") == []
+
+
+def test_every_option_is_in_the_panel_of_some_mode():
+    """Every key `--set` and the bench take is drawn by the viewer's panel: frame-wide, or in the
+    option groups of some pass mode's graph."""
+    from app.options import Options
+    from app.passes import ALL
+    from app.ui_panel import frame_wide_keys, option_keys_for
+
+    opts = Options()
+    shown = set(frame_wide_keys(opts)) | {k for mode in ALL for k in option_keys_for(opts, mode)}
+    assert set(opts.keys()) - shown == set()
+    assert {"jitter", "reproject", "denoise"} <= set(frame_wide_keys(opts))
