@@ -3,9 +3,10 @@ that escape (1 = fully open)."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from rt.embree import gather, raygen
+from rt.embree.jit import njit
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)

@@ -19,7 +19,8 @@ sum of e alone: the study's Lambert model."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from rt.embree.jit import njit
 
 F = np.float32
 ZERO, ONE = F(0.0), F(1.0)
@@ -31,12 +32,12 @@ SUM_E, SUM_EW, SUM_EDV, SUM_EDVW, VIEW, ALPHA = 0, 3, 6, 9, 12, 15
 GGX_COLS = 16
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def alpha(roughness):
     return max(roughness * roughness, MIN_ALPHA)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def ggx_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, a):
     """(w, D V) for unit normal n, view v, light l and alpha a (module notes)."""
     hx, hy, hz = vx + lx, vy + ly, vz + lz
@@ -55,7 +56,7 @@ def ggx_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, a):
     return w, d * vis
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def add_light(acc, i, ex, ey, ez, nx, ny, nz, lx, ly, lz):
     """acc[i] gains light sample (ex, ey, ez) (irradiance x cos) arriving along unit (lx, ly, lz)
     at a point of shading normal n: its sum, and with GGX_COLS columns the GGX terms' sums."""
@@ -76,12 +77,12 @@ def add_light(acc, i, ex, ey, ez, nx, ny, nz, lx, ly, lz):
     acc[i, SUM_EDVW + 2] += ez * dv * w
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def f0(base, metallic):
     return F(0.04) * (ONE - metallic) + base * metallic
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def diffuse_weight(base, metallic):
     """What light arriving from every side (cosine-weighted) is multiplied by to leave
     diffusely, x pi: c_diff (1 - F0) (the Fresnel weight of the sample's own half vector is
@@ -89,7 +90,7 @@ def diffuse_weight(base, metallic):
     return base * (ONE - metallic) * (ONE - f0(base, metallic))
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def outgoing(acc, i, a, base, metallic):
     """The direct radiance, channel a, that accumulator row acc[i] (GGX_COLS columns) gives a
     material of base colour `base` (that channel) and `metallic`."""
@@ -99,7 +100,7 @@ def outgoing(acc, i, a, base, metallic):
             + (ONE - r) * acc[i, SUM_EDVW + a])
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def light_out(acc, i, a, base, metallic):
     """Direct radiance leaving point i, channel a, from its accumulator: GGX (GGX_COLS columns)
     or Lambert (base / pi x the sum)."""
@@ -127,7 +128,7 @@ def accumulator(ggx, D, rows, rough):
 GLOSSY_DIM = 72  # the reflections pass's glossy rays: their two numbers (above every mirror level's lights)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _frame(nx, ny, nz):
     """A tangent t and bitangent b about unit n (sample_visible_normal's frame)."""
     if abs(nx) > F(0.9):
@@ -139,7 +140,7 @@ def _frame(nx, ny, nz):
     return tx, ty, tz, ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def visible_normal(nx, ny, nz, vx, vy, vz, a, u0, u1):
     """sample_visible_normal (below) for one point: a GGX microfacet normal about n seen from v."""
     tx, ty, tz, bx, by, bz = _frame(nx, ny, nz)
@@ -166,7 +167,7 @@ def visible_normal(nx, ny, nz, vx, vy, vz, a, u0, u1):
     return (mx * tx + my * bx + mz * nx, mx * ty + my * by + mz * ny, mx * tz + my * bz + mz * nz)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def g1(c, a):
     c = max(c, MIN_COS)
     return F(2.0) * c / (c + np.sqrt(a * a + (ONE - a * a) * c * c))

@@ -4,10 +4,10 @@ the frame's images (and the uncovered pixels around them)."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from rt.embree import brdf
 from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
+from rt.embree.jit import njit
 from rt.embree.kernels import environment_rgb, environment_terms, uniform
 from rt.embree.raygen import offset_origin
 from rt.environment import env_args  # noqa: F401  (the kernels' callers read it from here)
@@ -54,7 +54,7 @@ def add_bounce(out, owner, sel, k, albedo, metallic, direct, inner):
             out[p, a] += light
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _fill_run(out, aux, aux_fill, view_dir, terms, p0, p1):
     channels = aux.shape[1] if aux.shape[0] > 0 else 0  # an empty aux: none (RtFrame.aux_image)
     for p in range(p0, p1):
@@ -140,7 +140,7 @@ def write_ao(out, ao_image, pix, open_count, rays, albedo, grey):
             out[p, a] = v if grey else albedo[j, a] * v
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _fresnel(albedo, metallic, nx, ny, nz, vx, vy, vz, a):
     """Schlick's Fresnel, channel a: F0 = 0.04 for dielectrics, the albedo for metals."""
     f0 = np.float32(0.04) * (np.float32(1.0) - metallic) + albedo * metallic

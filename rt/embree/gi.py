@@ -7,10 +7,11 @@ lights), so a bounce ray that happens to hit an emitter does not add its emissio
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
+from rt.embree.jit import njit
 from rt.embree.kernels import shade_hits
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks

@@ -13,12 +13,13 @@ from contextlib import contextmanager
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, prange
+from numba import prange
 from numba.core import cgutils
 from numba.core import types as nbtypes
 from numba.extending import intrinsic
 
 from rt.embree import textures
+from rt.embree.jit import njit
 from rt.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
 from rt.mesh import LAYER_BASE, LAYER_EMISSION, LAYER_ORM
 
@@ -32,7 +33,7 @@ M2 = np.uint64(0x94D049BB133111EB)
 HIT_ERROR = np.float32(2.0**-20)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def hit_lift(ox, oy, oz, t):
     """How far a hit t along a unit ray from o is lifted off its surface (HIT_ERROR)."""
     return (max(abs(ox), abs(oy), abs(oz)) + t) * HIT_ERROR
@@ -104,7 +105,7 @@ def take_many(typingctx, counter, n):
     return nbtypes.int64(counter, n), codegen
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def take_next(counter):
     """counter[0] += 1 atomically, returning the value before: how the threads of a parallel
     kernel share out work items, each taking the next one when it is free."""
@@ -130,7 +131,7 @@ def uniform(key, dim):
     return np.float32(h >> np.uint64(40)) * np.float32(1.0 / 16777216.0)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def pixel_key(pixel, base):
     """A pixel's generator key: a hash of its id and the frame's base key (sampling.key_base)."""
     return mix64(np.uint64(pixel) * GOLDEN + base)
@@ -227,7 +228,7 @@ def covered_pixels(geometry, height, width, idx, row_start):
     return m
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _pixel_ray(p, width, height, tan_half, jitter, right, up, fwd):
     """The ray through pixel p (row 0 at the top) at its centre moved by jitter (pixels: right,
     down), of unit length along fwd."""
@@ -252,7 +253,7 @@ def camera_rays(eye, right, up, fwd, tan_half, jitter, width, height, origin, di
 HALF_EXP = np.array([2.0 ** (e - 15) for e in range(32)], np.float32)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _half(h):
     """IEEE half (low 16 bits of h) to float; the G-buffer holds no infinities or NaNs."""
     e = (h >> 10) & 0x1F
@@ -261,14 +262,14 @@ def _half(h):
     return -v if (h >> 15) & 1 else v
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _snorm16(u):
     x = np.int32(u & 0xFFFF)
     x = x - 65536 if x >= 32768 else x
     return max(np.float32(x) / np.float32(32767.0), np.float32(-1.0))
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _octahedral(word):
     """A unit vector from its octahedral encoding (2 x snorm16, as GLSL's packSnorm2x16)."""
     x, y = _snorm16(word), _snorm16(word >> 16)
@@ -365,7 +366,7 @@ def fill_rows(out, value):
         flat[j] = value
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def environment_terms(kind, color, horizon, zenith, ground):
     """An environment (kinds as rt/embree/gather.py: env_args) as the float32 terms environment_rgb
     takes: a constant colour, and the analytic sky's horizon, zenith and ground colours
@@ -378,7 +379,7 @@ def environment_terms(kind, color, horizon, zenith, ground):
             f(ground[0]) * c0, f(ground[1]) * c0, f(ground[2]) * c0)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def environment_rgb(y, terms):
     """The environment's radiance towards a direction of height y: black, a constant colour,
     or the sky, from horizon to zenith above and half the horizon to the ground below

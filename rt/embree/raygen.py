@@ -27,10 +27,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from rt.embree import rtcore as embree
 from rt.embree.brdf import SUM_EDVW, add_light
+from rt.embree.jit import njit
 from rt.embree.kernels import bits_float, float_bits, pixel_key, take_next, uniform
 from rt.layout import (
     AREA_PDF,
@@ -70,7 +70,7 @@ TINY = F(1e-12)
 INV_PI = F(1.0 / math.pi)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def sin_turns(u):
     """sin(2 pi u) for u >= 0 (float32, branch-free)."""
     x = u - F(int(u + HALF))  # [-1/2, 1/2] turns
@@ -81,7 +81,7 @@ def sin_turns(u):
     return t * (ONE + t2 * (S3 + t2 * (S5 + t2 * (S7 + t2 * (S9 + t2 * S11)))))
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def cos_turns(u):
     return sin_turns(u + F(0.25))
 
@@ -96,7 +96,7 @@ ORIGIN, FLOAT_SCALE, INT_SCALE = F(1.0 / 32.0), F(1.0 / 65536.0), F(256.0)
 SHADOW_SHORTEN = F(1.0 / 4096.0)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _nudge(p, n):
     p = F(p)
     if abs(p) < ORIGIN:
@@ -105,7 +105,7 @@ def _nudge(p, n):
     return bits_float(np.int32(float_bits(p) + (-of if p < ZERO else of)))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def mis_weight(p_this, p_other):
     """The power heuristic (Veach): the weight of a sample drawn with density p_this where
     another strategy would have drawn it with density p_other."""
@@ -113,13 +113,13 @@ def mis_weight(p_this, p_other):
     return a / (a + b) if a + b > ZERO else ZERO
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def offset_origin(px, py, pz, nx, ny, nz):
     """A ray origin off the surface at p on the side its true normal n points to (tnear stays 0)."""
     return _nudge(px, nx), _nudge(py, ny), _nudge(pz, nz)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def shadow_tmax(dist):
     """How far a shadow ray to a light dist away goes: short of the light (an emitter's own
     surface) by a fraction of its length, at any scale."""
@@ -144,7 +144,7 @@ RUN = 256  # points per step: a vectorised loop fills the step's rays, a short s
 DIR, DIST, CARRIED = 0, 3, 4
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _transpose3(A, x, y, z):
     for i in range(A.shape[0]):
         x[i], y[i], z[i] = A[i, 0], A[i, 1], A[i, 2]
@@ -159,7 +159,7 @@ def surface_soa(P, N, NG, out):
     _transpose3(NG, out[6], out[7], out[8])
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, light):
     """Append the step's rays that carry something, in order: origin offset_origin(p, ng), direction
     (blk's DIR rows), and the point's index; for light rays (`light`) tmax from the DIST row,
@@ -184,7 +184,7 @@ def _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, li
     return m
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light):
     """_pack's rays, traced one by one instead of written out; acc[point] gains what each ray
     that gets through carries (see _pack and the module notes). Returns how many were traced."""
@@ -215,7 +215,7 @@ def _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light):
     return m
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _emit(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, tr, buf, words, b, acc, light):
     """A step's rays (blk), traced into acc if tr has a scene (_trace_add), else packed after the
     m already packed (_pack); returns the new count."""
@@ -224,7 +224,7 @@ def _emit(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, tr
     return _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, light)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def about(nx, ny, nz, x, y, z):
     """(x, y, z) in the orthonormal basis about n (Duff et al. 2017)."""
     sign = ONE if nz >= ZERO else -ONE
@@ -235,7 +235,7 @@ def about(nx, ny, nz, x, y, z):
             -sign * nx * x - ny * y + nz * z)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
     for j in range(nb):
         key = keys[j]
@@ -276,7 +276,7 @@ def cosine_dirs(N, keys, dim, out):
                                                 np.sqrt(max(ZERO, ONE - u0)))
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb):
     """Step slot j: a shadow ray towards (x, y, z) at distance dist, with its unshadowed
     irradiance x cos: zero where the light is below the shading or the true surface."""
@@ -287,7 +287,7 @@ def _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz,
     er[j], eg[j], eb[j] = ex * cs, ey * cs, ez * cs
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _sun(ax, ay, az, cos_ang, u0, u1):
     """A direction in the cone of half-angle acos(cos_ang) about (ax, ay, az), the direction to
     a sun (exactly that direction for a point-like sun: cos_ang = 1)."""
@@ -296,7 +296,7 @@ def _sun(ax, ay, az, cos_ang, u0, u1):
     return about(ax, ay, az, st * cos_turns(u1), st * sin_turns(u1), ct)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, far, dx, dy, dz, dd, er, eg, eb, nb):
     """One loop per light type, so each stays short and branch-free; the light's parameters are
     read into locals first (loads from the light arrays inside the loop would have to be
@@ -341,7 +341,7 @@ def analytic_shadow_rays(k, G, g0, keys, dim, analytic, far, origin, direction, 
     return m
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _toward_emitter(S, j, u, w, px, py, pz):
     """From (px, py, pz) towards a uniform point (numbers u, w) on the triangle of light row
     S[:, j] (layout.py): the unit direction, the squared distance, 1 / the distance, and
@@ -359,7 +359,7 @@ def _toward_emitter(S, j, u, w, px, py, pz):
     return x, y, z, d2, inv, cl * inv * inv
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, keep, alias, dx, dy, dz, dd, er, eg,
                   eb, U, S, nb):
     """Three loops: each point's numbers (vectorises: the hash is integer arithmetic), the
@@ -409,7 +409,7 @@ BLOCK = 256  # points whose light weights are computed together, one light at a 
 SCRATCH_ROWS = 6  # one_light_shadow_rays' scratch rows besides the weights
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, run):
     """w[k, i]: the running sum over lights 0..k of their estimated contribution at block point
     i (run: scratch, left holding the total). Analytic lights exactly (up to the albedo);
@@ -457,7 +457,7 @@ def _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, run):
             row[i] = run[i]
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _draw_targets(keys, dim, nb, total, target, pick, u1, u2, u3):
     """Per point: where in its running sums the pick falls, and the numbers that sample the
     light picked (vectorises: the hash is integer arithmetic)."""
@@ -468,7 +468,7 @@ def _draw_targets(keys, dim, nb, total, target, pick, u1, u2, u3):
         pick[i] = ZERO
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _draw_samples(keys, dim, nb, u1, u2, u3):
     """_draw_targets' numbers that sample the light, for a pick that needs no target."""
     for i in range(nb):
@@ -494,7 +494,7 @@ def analytic_rows(analytic):
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
     """S[:LIGHT_ROW, b]: the row of what point b picked (the analytic light's, or for an
     emissive cluster the triangle drawn from it with u1, alias method), S[INV_PROB, b] 1 / the
@@ -522,7 +522,7 @@ def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
             S[IS_EMITTER, b] = ONE
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
     """The shadow ray of every point towards the light it picked (rows S, _gather_picked),
     divided by the pick's probability: one branch-free loop over unit-stride rows that
@@ -559,7 +559,7 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx,
         _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _emitter_density(fx, fy, fz, two_sided, area_pdf, pick, t, dx, dy, dz):
     """The density (per solid angle) with which a light sample whose light was picked with
     probability `pick` draws direction d towards a point t away on an emitting triangle (face
@@ -572,7 +572,7 @@ def _emitter_density(fx, fy, fz, two_sided, area_pdf, pick, t, dx, dy, dz):
     return pick * area_pdf * t * t / cl
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb):
     """After _picked_rays, for multiple importance sampling (the reference path tracer's): each
     emitter's sample weighted by the power heuristic against cosine-weighted sampling of its
@@ -594,7 +594,7 @@ def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb):
         er[b], eg[b], eb[b] = er[b] * w, eg[b] * w, eb[b] * w
 
 
-@njit(cache=True, error_model="numpy", inline="always", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
     """_picked_rays where the scene's one light is a sun (row: its LIGHT_ROW): the cone sample
     alone, from the same two numbers (dimensions dim + 1 and dim + 2), without the point
@@ -731,7 +731,7 @@ def block_bounds(n, workers):
     return bounds[:count + 1]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def next_block(counter, bounds):
     """The next block of points (b0, b1) for a whole-frame kernel's worker (bounds:
     block_bounds); b0 >= n when all are taken. Workers take blocks in order as each becomes free
@@ -746,7 +746,7 @@ def next_block(counter, bounds):
     return bounds[i], bounds[i + 1]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def block_keys(pix, b0, b1, base):
     """The keys of a whole-frame kernel's block of points (pixels pix[b0:b1]), made by the
     worker that uses them (base: RtFrame.key_base): a pass over every pixel before the frame,
@@ -757,7 +757,7 @@ def block_keys(pix, b0, b1, base):
     return keys
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def no_rays():
     """Empty ray buffers, for generators that trace what they make (tr has a scene) and so never
     write rays out: (origin, direction, tmax, light, index)."""
@@ -791,7 +791,7 @@ def direct_block(G, b0, keys, lights, one, dim0, far, tr, total):
     return traced
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total):
     """direct_block's rays: to one chosen light (one), else to light k (dimensions dim0 + 3k),
     packed into o, d, t, e, idx or traced into total (tr has a scene); returns their count."""
@@ -799,7 +799,7 @@ def _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, tot
     if one:
         weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
         return one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, far, weights, o, d, t, e, idx,
-                                     tr, total)
+                                     tr, total, False)
     start, rows, keep, alias = emitters
     count_analytic = analytic[0].shape[0]
     dim = dim0 + 3 * k

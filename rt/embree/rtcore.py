@@ -19,9 +19,10 @@ import os
 
 import numpy as np
 from llvmlite import binding as llvm
-from numba import njit, prange, types
+from numba import prange, types
 
 from core.errors import UserError
+from rt.embree.jit import njit
 from rt.embree.kernels import take_many
 
 INVALID = np.uint32(0xFFFFFFFF)
@@ -144,7 +145,7 @@ def ray_buffer():
     return buf, ((64 - buf.ctypes.data % 64) % 64) // 4
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
     buf[b] = ox
     buf[b + 1] = oy
@@ -160,7 +161,7 @@ def set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
     words[b + 11] = 0  # flags
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def occluded1(scene, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
     """True if something lies on the ray within (0, tmax)."""
     set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax)
@@ -168,7 +169,7 @@ def occluded1(scene, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
     return buf[b + 8] < 0.0  # Embree sets tfar to -inf on a hit
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def intersect1(scene, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
     """The closest hit within (0, tmax): (t, prim, u, v), prim -1 and t MISS_T on a miss."""
     set_ray(buf, words, b, ox, oy, oz, dx, dy, dz, tmax)
@@ -217,13 +218,13 @@ def target(handle: int, log: np.ndarray | None = None, count: np.ndarray | None 
     return np.int64(handle), log, count
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def no_trace(tr):
     """tr's log with no scene: generators given it pack their rays instead of tracing them."""
     return np.int64(0), tr[1], tr[2]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def log_reserve(tr, n):
     """The first of n log slots for the caller's next rays, or -1 when tr does not log."""
     if tr[1].shape[0] == 0:
@@ -231,7 +232,7 @@ def log_reserve(tr, n):
     return take_many(tr[2], n)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def log_put(tr, slot, kind, ox, oy, oz, dx, dy, dz, tmax):
     """Write a ray (or with kind -1, a slot not traced) at a reserved slot; past the end of the
     log (or slot -1) nothing is kept (RayLog.overflowed counts it)."""
@@ -241,7 +242,7 @@ def log_put(tr, slot, kind, ox, oy, oz, dx, dy, dz, tmax):
         log[slot, 6], log[slot, 7] = tmax, kind
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def trace_occluded(tr, slot, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
     """occluded1 on the target's scene, the ray logged at `slot` (log_reserve) if tr logs."""
     log_put(tr, slot, 0.0, ox, oy, oz, dx, dy, dz, tmax)

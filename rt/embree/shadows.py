@@ -3,9 +3,10 @@ pixel chosen by its contribution there (`one`, unbiased: accumulates to `all`)."
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from rt.embree import brdf, gather, raygen
+from rt.embree.jit import njit
 
 
 @njit(cache=True, error_model="numpy", nogil=True, parallel=True)

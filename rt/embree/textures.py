@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rt.embree.jit import njit
 from rt.mesh import LAYER_BASE, LAYER_NORMAL
 
 UV_LIMIT = 1e6  # texture coordinates are clamped to this before they become texel indices
