@@ -83,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "keeping each count's fastest frame (default 2; more on a noisy shared host)")
 
     s = sub.add_parser("warmup", help="compile every ray-tracing kernel ahead of use (once per version)")
+    s.add_argument("--jobs", type=int, metavar="N", help="processes compiling side by side (default: one per "
+                   "core, at most 4)")
+    s.add_argument("--variants", help=argparse.SUPPRESS)  # one worker's share (app/warmup.py)
 
     s = sub.add_parser("devices", help="list the ray-tracing backends available here, and what tracer=auto picks")
     s.add_argument("--json", action="store_true", help="machine-readable output")
@@ -119,33 +122,14 @@ def cmd_scenes(args) -> int:
 
 
 def cmd_warmup(args) -> int:
-    """Render every ray-traced pass once, small, on the Embree backend, so that its compiled
-    kernels are in the cache before a user's first frame (the viewer would wait for them)."""
-    import time
+    from app.warmup import compile_variants, run_warmup
 
-    from app.camera import Camera
-    from app.gl_context import create_headless_context
-    from app.options import Options
-    from app.renderer import Renderer
-    from scenes.builtin import build_builtin
-
-    t0 = time.perf_counter()
-    ctx = create_headless_context()
-    scene = build_builtin("cafe")  # point, emissive and environment lights: every light kind's code
-    camera = Camera.from_view(scene.default_view(), scene.diagonal)
-    variants = [("ao", []), ("shadows", []), ("shadows", ["shadows.lights=one"]), ("gi", []),
-                ("gi", ["gi.bounces=2", "gi.shadows=false"]), ("reflections", ["reflections.max_depth=2"]),
-                ("reference", []), ("hybrid", ["hybrid.gi=true", "hybrid.reflections=true"]),
-                ("normal", ["gbuffer=rt"])]
-    for k, (pass_name, sets) in enumerate(variants):
-        print(f"{PROG}: warmup {k + 1}/{len(variants)}: {pass_name} ({time.perf_counter() - t0:.0f} s)", flush=True)
-        options = Options()
-        options.apply(sets)
-        renderer = Renderer(ctx, scene, options)
-        renderer.render(camera, 32, 18, pass_name)
-        renderer.release()
-    print(f"{PROG}: kernels compiled and cached in {time.perf_counter() - t0:.0f} s")
-    return 0
+    if args.variants:
+        compile_variants([int(i) for i in args.variants.split(",")])
+        return 0
+    if args.jobs is not None and args.jobs < 1:
+        raise UserError(f"--jobs must be at least 1, got {args.jobs}")
+    return run_warmup(args.jobs)
 
 
 def cmd_devices(args) -> int:
@@ -235,12 +219,12 @@ def _run(parser, argv: list) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    if args.command in ("shot", "view", "bench") and sys.stderr.isatty():
-        from rt.embree.process import kernels_cached
+    if args.command == "bench" and sys.stderr.isatty():
+        from rt.backends import kernels_ready
 
-        if not kernels_cached():  # a one-time wait that would otherwise look like a hang
-            print(f"{PROG}: the first ray-traced frame compiles this version's kernels (once: a minute or "
-                  f"two; `rtlab warmup` does it ahead of use)", file=sys.stderr, flush=True)
+        if not kernels_ready():  # a one-time wait that would otherwise look like a hang
+            print(f"{PROG}: the first frame of each ray-traced pass compiles this version's kernels first "
+                  f"(`rtlab warmup` does it ahead of use)", file=sys.stderr, flush=True)
     if args.command == "shot":
         from app.headless import run_shot
 

@@ -15,6 +15,7 @@ from app.options import Options
 from app.passes import CHANNEL_VIEWS, RASTER, check_pass
 from app.renderer import Renderer
 from core.errors import UserError
+from rt.backends import compile_keys, compile_notices, resolve, watch_first_frame
 from scenes.loaders import load_scene
 
 
@@ -53,8 +54,15 @@ def run_shot(args) -> int:
     check_frame_size(ctx, width, height, "raster" if args.pass_name in RASTER + CHANNEL_VIEWS else "ray-traced")
     renderer = Renderer(ctx, scene, options)
     renderer.seed = args.seed
+    tracer = resolve(options.get("tracer"))
+    keys = compile_keys(tracer, args.pass_name, options.get("gbuffer"))
+    right = compile_keys(tracer, "reference" if compare == DIFF else compare, options.get("gbuffer")) if compare else []
+    for line in compile_notices(list(dict.fromkeys(keys + right))):  # a wait that would otherwise look like a hang
+        print(f"rtlab: {line}", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    _render_frames(renderer, camera, width, height, args.pass_name, args.frames)
+    with watch_first_frame(tracer, keys):  # the first frame compiles what is missing
+        _render_frames(renderer, camera, width, height, args.pass_name, 1)
+    _render_frames(renderer, camera, width, height, args.pass_name, args.frames - 1)
     elapsed = time.perf_counter() - t0
     display, linear = renderer.read_display(), (renderer.read_linear() if args.raw else None)
     note = ""

@@ -33,8 +33,7 @@ from app.split_view import Comparison, Track
 from app.ui_panel import Panel
 from app.warmup import BackgroundWarmup
 from core.errors import UserError
-from rt.backends import return_freed_memory
-from rt.embree.process import kernels_cached
+from rt.backends import kernels_ready, return_freed_memory
 from scenes.builtin import DEFAULT_SCENE
 from scenes.loaders import load_scene
 from scenes.model import View
@@ -91,7 +90,7 @@ class Viewer:
         self.show_ui = True
         self.show_profiler = True
         self.show_help = False  # F1
-        self.warmup = None if kernels_cached() else BackgroundWarmup()  # a cold start compiles while you look
+        self.warmup = None if kernels_ready() else BackgroundWarmup()  # a cold start compiles while you look
         self.screenshot_dir = "rtlab-screenshots"  # F12 writes here (the panel names it)
         self.frame_times: deque = deque(maxlen=240)
         self.panel = Panel(self)

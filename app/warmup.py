@@ -1,19 +1,120 @@
-"""The viewer's cold start: when this version's ray-tracing kernels are not compiled yet, the
-viewer runs `rtlab warmup` in a background process at start and shows its progress, so the
-first ray-traced frame does not sit behind minutes of compiling with no word said."""
+"""`rtlab warmup`: every ray-traced pass rendered once, small, on the Embree backend, so that its
+compiled kernels are cached before a user's first frame; and the viewer's cold start, which runs
+it in a background process and shows its progress.
+
+The passes compile in parallel processes (one per core, at most one per family of passes that
+share kernels), each recording what it compiled and how long that took (rt.backends)."""
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import subprocess
 import sys
 import threading
+import time
+
+PROG = "rtlab"
+
+# (key, pass, options): every kernel's code. Families share most of their kernels, so each
+# compiles in one process; the heaviest first.
+FAMILIES = (
+    (("shadows", "shadows", []), ("shadows", "shadows", ["shadows.lights=one"]), ("gi", "gi", []),
+     ("gi", "gi", ["gi.bounces=2", "gi.shadows=false"])),
+    (("reflections", "reflections", ["reflections.max_depth=2"]),
+     ("hybrid", "hybrid", ["hybrid.gi=true", "hybrid.reflections=true"])),
+    (("ao", "ao", []),),
+    (("gbuffer=rt", "normal", ["gbuffer=rt"]), ("reference", "reference", [])),
+)
+VARIANTS = tuple(v for family in FAMILIES for v in family)
+
+
+def default_jobs() -> int:
+    return max(1, min(len(FAMILIES), os.cpu_count() or 1))
+
+
+def compile_variants(indices: list[int]) -> None:
+    """Render variants VARIANTS[i] (in this process), printing `start I` and `done I SECONDS`."""
+    from app.camera import Camera
+    from app.gl_context import create_headless_context
+    from app.options import Options
+    from app.renderer import Renderer
+    from rt.backends import record_compile, watch_first_frame
+    from scenes.builtin import build_builtin
+
+    ctx = create_headless_context()
+    scene = build_builtin("cafe")  # point, emissive and environment lights: every light kind's code
+    camera = Camera.from_view(scene.default_view(), scene.diagonal)
+    spent, compiled = {}, {}
+    for i in indices:
+        key, pass_name, sets = VARIANTS[i]
+        print(f"start {i}", flush=True)
+        t0 = time.perf_counter()
+        options = Options()
+        options.apply(sets)
+        renderer = Renderer(ctx, scene, options)
+        with watch_first_frame("embree", []) as watch:
+            renderer.render(camera, 32, 18, pass_name)
+        renderer.release()
+        spent[key] = spent.get(key, 0.0) + time.perf_counter() - t0
+        compiled[key] = compiled.get(key, False) or watch.compiles > 0
+        if i == max(j for j in indices if VARIANTS[j][0] == key):  # the key's last variant here
+            record_compile(key, spent[key] if compiled[key] else None)
+        print(f"done {i} {time.perf_counter() - t0:.1f}", flush=True)
+
+
+def run_warmup(jobs: int | None = None) -> int:
+    """Compile every variant in `jobs` processes (default: one per core, up to the families'
+    count); progress lines `rtlab: warmup K/N: NAME (T s)` as each variant starts."""
+    jobs = max(1, min(jobs or default_jobs(), len(FAMILIES)))
+    groups = [[] for _ in range(jobs)]
+    for f, family in enumerate(FAMILIES):  # families in order, to the process with the least so far
+        start = sum(len(fam) for fam in FAMILIES[:f])
+        min(groups, key=len).extend(range(start, start + len(family)))
+    t0 = time.perf_counter()
+    procs = [subprocess.Popen([sys.executable, "-m", "app.cli", "warmup", "--variants", ",".join(map(str, g))],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) for g in groups if g]
+    lock, started, failures = threading.Lock(), [0], []
+
+    def follow(proc):
+        last = ""
+        for line in proc.stdout:
+            word, _, rest = line.strip().partition(" ")
+            if word == "start":
+                _, pass_name, sets = VARIANTS[int(rest)]
+                with lock:
+                    started[0] += 1
+                    label = pass_name + (f" ({' '.join(sets)})" if sets else "")
+                    print(f"{PROG}: warmup {started[0]}/{len(VARIANTS)}: {label} "
+                          f"({time.perf_counter() - t0:.0f} s)", flush=True)
+            elif word != "done" and line.strip():
+                last = line.strip()
+        if proc.wait() != 0:
+            failures.append(last or f"exit status {proc.returncode}")
+
+    threads = [threading.Thread(target=follow, args=(p,)) for p in procs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    if failures:
+        print(f"{PROG}: error: compiling the kernels failed: {failures[0][:300]}", file=sys.stderr)
+        return 1
+    print(f"{PROG}: kernels compiled and cached in {time.perf_counter() - t0:.0f} s ({len(procs)} processes)")
+    return 0
 
 
 class BackgroundWarmup:
+    """`rtlab warmup` beside the viewer: one core fewer than the machine has (the viewer keeps
+    one), in a session of its own so that stop() ends its workers too."""
+
     def __init__(self):
         self.status = "compiling ray-tracing kernels in the background (once per version)..."
         self.failed = ""
-        self.process = subprocess.Popen([sys.executable, "-m", "app.cli", "warmup"], stdout=subprocess.PIPE,
-                                        stderr=subprocess.STDOUT, text=True)
+        jobs = max(1, (os.cpu_count() or 1) - 1)
+        self.process = subprocess.Popen([sys.executable, "-m", "app.cli", "warmup", "--jobs", str(jobs)],
+                                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                        start_new_session=True)
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
 
@@ -34,8 +135,9 @@ class BackgroundWarmup:
 
     def stop(self) -> None:
         if self.process.poll() is None:
-            self.process.terminate()
             try:
+                os.killpg(self.process.pid, signal.SIGTERM)  # the warmup and its workers
                 self.process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
+            except (ProcessLookupError, subprocess.TimeoutExpired):
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(self.process.pid, signal.SIGKILL)

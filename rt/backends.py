@@ -25,6 +25,49 @@ def return_freed_memory() -> None:
     trim()
 
 
+# what the first frame of each key compiles on the Embree backend: the ray-traced passes, and the
+# ray-traced G-buffer (any pass with gbuffer=rt)
+COMPILED_KEYS = ("shadows", "reflections", "gi", "ao", "hybrid", "reference", "gbuffer=rt")
+
+
+def compile_keys(tracer: str, pass_name: str, gbuffer: str = "raster") -> list[str]:
+    """What a first frame of pass_name would compile on this tracer (resolved), by key."""
+    if tracer != "embree":
+        return []  # the GPU backends compile their shaders in seconds, said nowhere
+    keys = [pass_name] if pass_name in COMPILED_KEYS else []
+    return keys + (["gbuffer=rt"] if gbuffer == "rt" and pass_name != "forward" else [])
+
+
+def compile_notices(keys: list[str]) -> list[str]:
+    """For keys whose kernels this version has not compiled yet: what the wait is, and how long it
+    took here last time (rt/embree/compile_log.py)."""
+    from rt.embree import compile_log
+
+    return [n for n in (compile_log.notice(k) for k in keys) if n]
+
+
+def kernels_ready() -> bool:
+    """Whether every key's kernels are compiled for this version (the viewer compiles the rest in
+    the background when not)."""
+    from rt.embree import compile_log
+
+    return all(compile_log.compiled(k) for k in COMPILED_KEYS)
+
+
+def watch_first_frame(tracer: str, keys: list[str]):
+    """A context manager around a first frame: records keys compiled (and the time, if it
+    compiled); yields an object whose `compiles` counts the kernels compiled meanwhile."""
+    from rt.embree import compile_log
+
+    return compile_log.watch(keys if tracer == "embree" else [])
+
+
+def record_compile(key: str, seconds: float | None) -> None:
+    from rt.embree import compile_log
+
+    compile_log.record(key, seconds)
+
+
 def available() -> list[dict]:
     """Every backend with what it runs on here: name, device, whether it is available, and
     whether it is hardware (a GPU) or software (the CPU: Embree, lavapipe)."""

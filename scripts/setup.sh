@@ -47,8 +47,16 @@ sys.exit(0 if app.__file__.startswith('$PWD/') else 1)" 2>/dev/null; then
     $PY -m pip install -q --disable-pip-version-check -e '.[dev]'
 fi
 
-# compile the ray-tracing kernels once per version, so that a user's first frame does not wait
-if ! $PY -c "from rt.embree.process import kernels_cached; import sys; sys.exit(0 if kernels_cached() else 1)" 2>/dev/null; then
-    echo "setup: compiling the ray-tracing kernels (once per version: a minute or two)"
-    $PY -m app.cli warmup || echo "setup: warmup failed; the first ray-traced frames will compile the kernels instead"
-fi
+# The ray-tracing kernels are not compiled here: nothing waits for them. The viewer compiles them in
+# the background while it shows the forward pass, `rtlab shot` of a ray-traced pass compiles what
+# it needs and says so, and `rtlab warmup` compiles every pass ahead (scripts/test.sh runs it).
+$PY - <<'PY' 2>/dev/null || true
+from rt.backends import COMPILED_KEYS, kernels_ready
+from rt.embree.compile_log import last_seconds
+
+if not kernels_ready():
+    known = [last_seconds(k) for k in COMPILED_KEYS]
+    took = f"; {sum(known):.0f} s of compiling here last time" if all(t is not None for t in known) else ""
+    print(f"setup: ray-traced passes compile their kernels on first use (once per version{took}); "
+          "`rtlab warmup` compiles them all ahead")
+PY

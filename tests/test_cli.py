@@ -91,11 +91,14 @@ def test_view_without_display_suggests_shot():
 
 
 def test_warmup_compiles_every_kernel_and_says_so(tmp_path):
-    """rtlab warmup renders every ray-traced pass once (scripts/setup.sh runs it), so a user's
-    first frame does not wait for the compiler."""
-    r = rtlab("warmup", cwd=tmp_path)
+    """rtlab warmup renders every ray-traced pass once, in parallel processes (scripts/test.sh
+    runs it), so a user's first frame does not wait for the compiler; each of its nine variants
+    says when it starts, and every pass is then recorded compiled."""
+    r = rtlab("warmup", "--jobs", "2", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert "kernels compiled and cached" in r.stdout
-    from rt.embree.process import kernels_cached
+    assert "kernels compiled and cached" in r.stdout and "(2 processes)" in r.stdout
+    steps = [line for line in r.stdout.splitlines() if " warmup " in line]
+    assert sorted(int(line.split(" warmup ")[1].split("/")[0]) for line in steps) == list(range(1, 10))
+    from rt.backends import kernels_ready
 
-    assert kernels_cached()
+    assert kernels_ready()

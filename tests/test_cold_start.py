@@ -1,7 +1,9 @@
 """Cold start: from an empty kernel cache, `rtlab warmup` compiles every kernel, and then the
 first frame of each ray-traced pass, in `rtlab shot` and in the viewer, compiles nothing (the
 cache gains no file). The times are recorded, not asserted (this machine is shared): printed
-to the terminal and written to cold_start.json in the test's folder."""
+to the terminal and written to cold_start.json in the test's folder. It compiles every kernel
+again (minutes on a 2-core machine): --runslow. The suite itself compiles them once (the
+warmup in scripts/test.sh, or the first test of each pass)."""
 import json
 import os
 import re
@@ -18,6 +20,7 @@ def _files(folder):
     return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
 
 
+@pytest.mark.slow
 @pytest.mark.window
 def test_cold_cache_warmup_then_first_frames(tmp_path, display, capsys):
     cache = tmp_path / "kernels"

@@ -266,6 +266,12 @@ def test_cold_start_compiles_in_the_background():
         finally:
             v.close()
         assert process.poll() is not None, "the background compile outlived the window"
+        try:
+            os.killpg(process.pid, 0)  # its workers were in its session
+            alive = True
+        except ProcessLookupError:
+            alive = False
+        assert not alive, "a background compile worker outlived the window"
 
 
 def test_first_frames_after_warmup():

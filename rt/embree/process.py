@@ -36,13 +36,6 @@ def cache_dir(sources: pathlib.Path = pathlib.Path(__file__).parent) -> pathlib.
     return base / "rtlab" / "numba" / digest.hexdigest()[:16]
 
 
-def kernels_cached() -> bool:
-    """Whether this version's kernels were compiled before (the cache folder holds some): if
-    not, the first frame of each ray-traced pass compiles its kernels first."""
-    folder = pathlib.Path(os.environ.get("NUMBA_CACHE_DIR") or cache_dir())
-    return folder.is_dir() and any(folder.iterdir())
-
-
 def init() -> None:
     """Set the process up for the Embree backend (idempotent)."""
     global _done
