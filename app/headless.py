@@ -1,6 +1,7 @@
 """`rtlab shot`: render a scene without a window and write PNG / raw float32 images."""
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -60,9 +61,8 @@ def run_shot(args) -> int:
     for line in compile_notices(list(dict.fromkeys(keys + right))):  # a wait that would otherwise look like a hang
         print(f"rtlab: {line}", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    with watch_first_frame(tracer, keys):  # the first frame compiles what is missing
-        _render_frames(renderer, camera, width, height, args.pass_name, 1)
-    _render_frames(renderer, camera, width, height, args.pass_name, args.frames - 1)
+    _render_frames(renderer, camera, width, height, args.pass_name, args.frames,
+                   first=watch_first_frame(tracer, keys))  # the first frame compiles what is missing
     elapsed = time.perf_counter() - t0
     display, linear = renderer.read_display(), (renderer.read_linear() if args.raw else None)
     note = ""
@@ -96,12 +96,15 @@ def _compared(renderer, camera, width: int, height: int, args, left: np.ndarray,
     return image, note
 
 
-def _render_frames(renderer, camera, width: int, height: int, pass_name: str, frames: int) -> None:
-    """Renders the frames; a long run states its estimate, then its progress every 10 s on
-    stderr (Ctrl-C stops it, and nothing is written)."""
+def _render_frames(renderer, camera, width: int, height: int, pass_name: str, frames: int,
+                   first=None) -> None:
+    """Renders the frames (the first inside the context manager `first`, if given); a long run
+    states its estimate, then its progress every 10 s on stderr (Ctrl-C stops it, and nothing is
+    written)."""
     t0 = last = time.perf_counter()
     for k in range(frames):
-        renderer.render(camera, width, height, pass_name)
+        with first if (k == 0 and first is not None) else contextlib.nullcontext():
+            renderer.render(camera, width, height, pass_name)
         if frames < PROGRESS_FRAMES:
             continue
         now = time.perf_counter()

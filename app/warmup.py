@@ -63,6 +63,19 @@ def compile_variants(indices: list[int]) -> None:
         print(f"done {i} {time.perf_counter() - t0:.1f}", flush=True)
 
 
+_workers: list = []  # run_warmup's worker processes
+
+
+def _stop_workers(signum, frame) -> None:
+    for proc in _workers:
+        with contextlib.suppress(OSError):
+            proc.terminate()
+    for proc in _workers:
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.wait(timeout=10)
+    raise SystemExit(128 + signum)
+
+
 def run_warmup(jobs: int | None = None) -> int:
     """Compile every variant in `jobs` processes (default: one per core, up to the families'
     count); progress lines `rtlab: warmup K/N: NAME (T s)` as each variant starts."""
@@ -72,8 +85,10 @@ def run_warmup(jobs: int | None = None) -> int:
         start = sum(len(fam) for fam in FAMILIES[:f])
         min(groups, key=len).extend(range(start, start + len(family)))
     t0 = time.perf_counter()
-    procs = [subprocess.Popen([sys.executable, "-m", "app.cli", "warmup", "--variants", ",".join(map(str, g))],
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) for g in groups if g]
+    signal.signal(signal.SIGTERM, _stop_workers)  # the viewer's stop(): end the workers, then this process
+    procs = _workers[:] = [subprocess.Popen([sys.executable, "-m", "app.cli", "warmup", "--variants",
+                                             ",".join(map(str, g))], stdout=subprocess.PIPE,
+                                            stderr=subprocess.STDOUT, text=True) for g in groups if g]
     lock, started, failures = threading.Lock(), [0], []
 
     def follow(proc):
@@ -92,7 +107,7 @@ def run_warmup(jobs: int | None = None) -> int:
         if proc.wait() != 0:
             failures.append(last or f"exit status {proc.returncode}")
 
-    threads = [threading.Thread(target=follow, args=(p,)) for p in procs]
+    threads = [threading.Thread(target=follow, args=(p,), daemon=True) for p in procs]
     for t in threads:
         t.start()
     for t in threads:
@@ -135,9 +150,10 @@ class BackgroundWarmup:
 
     def stop(self) -> None:
         if self.process.poll() is None:
+            self.process.terminate()  # the warmup ends its workers and waits for them
             try:
-                os.killpg(self.process.pid, signal.SIGTERM)  # the warmup and its workers
-                self.process.wait(timeout=10)
-            except (ProcessLookupError, subprocess.TimeoutExpired):
+                self.process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
                 with contextlib.suppress(ProcessLookupError):
-                    os.killpg(self.process.pid, signal.SIGKILL)
+                    os.killpg(self.process.pid, signal.SIGKILL)  # everything of its session
+                self.process.wait()

@@ -68,7 +68,6 @@ def display():
     """An X display for window tests: the current one, or a private Xvfb."""
     import shutil
     import subprocess
-    import time
 
     if os.environ.get("DISPLAY"):
         yield os.environ["DISPLAY"]
@@ -78,13 +77,14 @@ def display():
         if os.environ.get("CI"):
             pytest.fail("Xvfb is missing (apt-get install xvfb)")
         pytest.skip("Xvfb not installed")
-    num = 90 + os.getpid() % 100
-    proc = subprocess.Popen([xvfb, f":{num}", "-screen", "0", "1600x1000x24", "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    for _ in range(100):
-        if os.path.exists(f"/tmp/.X11-unix/X{num}"):
-            break
-        time.sleep(0.05)
+    read, write = os.pipe()  # Xvfb picks a free display and writes its number here (test workers run side by side)
+    proc = subprocess.Popen([xvfb, "-displayfd", str(write), "-screen", "0", "1600x1000x24", "-nolisten", "tcp"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, pass_fds=(write,))
+    os.close(write)
+    with os.fdopen(read) as f:
+        num = f.readline().strip()
+    if not num:
+        pytest.fail("Xvfb did not start")
     os.environ["DISPLAY"] = f":{num}"
     try:
         yield os.environ["DISPLAY"]
