@@ -7,7 +7,6 @@ bash scripts/setup.sh
 # every kernel compiled once, in parallel processes, before the tests that use them
 $PY -c "import sys; from rt.backends import kernels_ready; sys.exit(0 if kernels_ready() else 1)" \
     || $PY -m app.cli warmup
-# one test worker per core, at most 4 (each also runs threads of its own); a file's tests on one
-# worker, so that the shader pipelines its first test compiles are cached for the rest
+# one test worker per core, at most 4 (each also runs threads of its own)
 jobs=$(nproc 2>/dev/null || echo 1); [ "$jobs" -gt 4 ] && jobs=4
-exec $PY -m pytest -q -n "${RTLAB_TEST_JOBS:-$jobs}" --dist loadfile "$@"
+exec $PY -m pytest -q -n "${RTLAB_TEST_JOBS:-$jobs}" "$@"
