@@ -2,7 +2,8 @@
 took here last time, so that a first frame says what it waits for and for about how long.
 
 - Per version: `passes.json` in the kernel cache folder (process.cache_dir, one per version of
-  the sources) lists the passes whose first frame compiled, or found compiled, every kernel.
+  the sources) lists the passes whose first frame compiled, or found compiled, every kernel, for
+  the checkout whose files' paths and times it names (numba recompiles for another).
 - Across versions: `compile_times.json` beside the cache folders keeps each pass's last
   measured compile time on this machine (a new version compiles about as long as the last).
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import json
 import os
 import pathlib
@@ -40,9 +42,24 @@ def _read(path: pathlib.Path) -> dict:
     return data if isinstance(data, dict) else {}
 
 
+def _stamp() -> str:
+    """The sources as numba's cache index sees them: it keeps a kernel only while its file has the
+    same path, time and size, so another checkout of the same version compiles again."""
+    from rt.embree.process import SHARED
+
+    folder = pathlib.Path(__file__).parent
+    digest = hashlib.sha1()
+    for f in sorted(folder.glob("*.py")) + [folder.parent / name for name in SHARED]:
+        with contextlib.suppress(OSError):
+            st = f.stat()
+            digest.update(f"{f.resolve()}:{st.st_mtime_ns}:{st.st_size}\n".encode())
+    return digest.hexdigest()[:16]
+
+
 def compiled(name: str) -> bool:
-    """Whether this version's kernels for pass `name` are compiled (cached) already."""
-    return name in _read(_version_file())
+    """Whether this version's kernels for pass `name` are compiled (cached) for this checkout."""
+    entry = _read(_version_file()).get(name)
+    return isinstance(entry, dict) and entry.get("stamp") == _stamp()
 
 
 def last_seconds(name: str) -> float | None:
@@ -59,7 +76,8 @@ def record(name: str, seconds: float | None) -> None:
         folder.mkdir(parents=True, exist_ok=True)
         with open(folder.parent / ".compile_log.lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
-            _update(_version_file(), name, None if seconds is None else round(seconds, 1))
+            _update(_version_file(), name, {"stamp": _stamp(),
+                                            "seconds": None if seconds is None else round(seconds, 1)})
             if seconds is not None:
                 _update(_times_file(), name, round(seconds, 1))
     except OSError:  # a read-only cache: nothing to remember, nothing breaks
