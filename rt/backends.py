@@ -43,7 +43,7 @@ def compile_notices(keys: list[str]) -> list[str]:
     took here last time (rt/embree/compile_log.py)."""
     from rt.embree import compile_log
 
-    return [n for n in (compile_log.notice(k) for k in keys) if n]
+    return compile_log.notices(keys)
 
 
 def kernels_ready() -> bool:
@@ -51,7 +51,7 @@ def kernels_ready() -> bool:
     the background when not)."""
     from rt.embree import compile_log
 
-    return all(compile_log.compiled(k) for k in COMPILED_KEYS)
+    return set(COMPILED_KEYS) <= compile_log.compiled_keys()
 
 
 def watch_first_frame(tracer: str, keys: list[str]):

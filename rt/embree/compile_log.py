@@ -45,21 +45,26 @@ def _read(path: pathlib.Path) -> dict:
 def _stamp() -> str:
     """The sources as numba's cache index sees them: it keeps a kernel only while its file has the
     same path, time and size, so another checkout of the same version compiles again."""
-    from rt.embree.process import SHARED
+    from rt.embree.process import sources
 
-    folder = pathlib.Path(__file__).parent
     digest = hashlib.sha1()
-    for f in sorted(folder.glob("*.py")) + [folder.parent / name for name in SHARED]:
+    for f in sources():
         with contextlib.suppress(OSError):
             st = f.stat()
             digest.update(f"{f.resolve()}:{st.st_mtime_ns}:{st.st_size}\n".encode())
     return digest.hexdigest()[:16]
 
 
+def compiled_keys() -> set[str]:
+    """The passes whose kernels this version has compiled (cached) for this checkout."""
+    stamp = _stamp()
+    return {name for name, entry in _read(_version_file()).items()
+            if isinstance(entry, dict) and entry.get("stamp") == stamp}
+
+
 def compiled(name: str) -> bool:
     """Whether this version's kernels for pass `name` are compiled (cached) for this checkout."""
-    entry = _read(_version_file()).get(name)
-    return isinstance(entry, dict) and entry.get("stamp") == _stamp()
+    return name in compiled_keys()
 
 
 def last_seconds(name: str) -> float | None:
@@ -92,13 +97,23 @@ def _update(path: pathlib.Path, key: str, value) -> None:
     tmp.replace(path)
 
 
+def notices(names) -> list[str]:
+    """What a first frame of passes `names` will wait for: a line for each whose kernels are not
+    compiled yet."""
+    done, lines = compiled_keys(), []
+    for name in names:
+        if name in done:
+            continue
+        last = last_seconds(name)
+        took = f"took {last:.0f} s here last time" if last is not None else "a minute or more on a slow CPU"
+        lines.append(f"compiling the {name} kernels (once per version; {took}; `rtlab warmup` compiles every "
+                     f"pass ahead)")
+    return lines
+
+
 def notice(name: str) -> str | None:
     """What a first frame of pass `name` will wait for, or None if its kernels are compiled."""
-    if compiled(name):
-        return None
-    last = last_seconds(name)
-    took = f"took {last:.0f} s here last time" if last is not None else "a minute or more on a slow CPU"
-    return f"compiling the {name} kernels (once per version; {took}; `rtlab warmup` compiles every pass ahead)"
+    return next(iter(notices([name])), None)
 
 
 @contextlib.contextmanager
@@ -126,6 +141,7 @@ def watch(names):
     finally:
         event.unregister("numba:compile", counter)
     elapsed = time.perf_counter() - t0
+    done = compiled_keys() if names else set()
     for name in names:
-        if not compiled(name):
+        if name not in done:
             record(name, elapsed if counter.compiles else None)

@@ -24,12 +24,16 @@ _done = False
 SHARED = ("layout.py", "keys.py")  # rt/ modules whose constants the kernels compile in
 
 
-def cache_dir(sources: pathlib.Path = pathlib.Path(__file__).parent) -> pathlib.Path:
-    """Where compiled kernels of these sources (every *.py in the folder, and the shared rt/
-    modules beside it) are cached."""
+def sources(folder: pathlib.Path = pathlib.Path(__file__).parent) -> list[pathlib.Path]:
+    """The files the kernels of this backend compile from: every *.py in the folder, and the
+    shared rt/ modules beside it."""
+    return sorted(folder.glob("*.py")) + [folder.parent / name for name in SHARED]
+
+
+def cache_dir(folder: pathlib.Path = pathlib.Path(__file__).parent) -> pathlib.Path:
+    """Where compiled kernels of these sources (sources(folder)) are cached."""
     digest = hashlib.sha1()
-    files = sorted(sources.glob("*.py")) + [sources.parent / name for name in SHARED]
-    for f in files:
+    for f in sources(folder):
         if f.exists():
             digest.update(f.name.encode() + b"\0" + f.read_bytes())
     base = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
