@@ -25,10 +25,17 @@ class DeviceInfo:
 
 
 def _slangpy():
+    if "slangpy" not in sys.modules:
+        # slangpy imports PyTorch when it is installed (4.2 s of a 4.3 s import on the H200
+        # machine) for tensor interop that rtlab never uses: import it as if PyTorch were absent
+        sys.modules.setdefault("torch", None)  # None: an import of torch raises ImportError meanwhile
     try:
         import slangpy
     except ImportError as e:
         raise UserError(f"the Slang backends need the slangpy package ({e}); pip install slangpy==0.43.1") from None
+    finally:
+        if sys.modules.get("torch", 0) is None:
+            del sys.modules["torch"]
     # a device that cannot be opened is reported as one line of ours, not slangpy's log lines
     slangpy.Logger.get().level = slangpy.LogLevel.fatal
     return slangpy
@@ -53,6 +60,12 @@ def _quiet():
             os.close(fd)
 
 
+def _cache_dir(kind: str) -> Path:
+    """slangpy's module and shader caches for a device kind, beside the Embree kernels' cache."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "rtlab" / "slang" / kind
+
+
 def open_device(kind: str):
     """The process's slangpy device of this kind, opened on first use; UserError if there is none."""
     if kind not in KINDS:
@@ -63,8 +76,13 @@ def open_device(kind: str):
         try:
             options = spy.SlangCompilerOptions({"include_paths": [str(SHADER_DIR)]})
             device_type = spy.DeviceType.vulkan if kind == "vulkan" else spy.DeviceType.cuda
+            cache = _cache_dir(kind)
             with _quiet():
-                found = spy.Device(type=device_type, enable_rhi_validation=False, compiler_options=options)
+                # compiled modules and pipelines are cached on disk: a process after the first
+                # does not compile the shaders again (rtlab warmup fills the cache)
+                found = spy.Device(type=device_type, enable_rhi_validation=False, compiler_options=options,
+                                   enable_hot_reload=False, module_cache_path=str(cache / "modules"),
+                                   shader_cache_path=str(cache / "shaders"))
             if not found.has_feature(spy.Feature.ray_tracing):
                 found = UserError(f"the {kind} device ({found.info.adapter_name}) has no ray tracing")
         except UserError:
