@@ -40,10 +40,13 @@ CONFIGS = {
     "ao_1": ("ao", ["ao.rays_per_pixel=1"]),
     "ao_4": ("ao", ["ao.rays_per_pixel=4"]),
     "hybrid": ("hybrid", []),
+    "hybrid_gi": ("hybrid", ["hybrid.gi=true"]),  # RT shadows and RT GI (one ray a pixel) in the forward frame
 }
 HYBRID_EFFECT = {"reflections": "reflections", "shadows_all": "shadows", "shadows_one": "shadows", "gi_1": "gi",
                  "gi_4": "gi", "gi_shadows": "gi", "ao_1": "ao", "ao_4": "ao"}
 DENOISERS = ("svgf", "oidn")
+# profiler entries that move images between GL, the host and a ray-tracing device
+TRANSFERS = ("gbuffer_readback", "gbuffer_share", "device_readback", "upload", "share")
 DENOISED = ("gi_1", "gi_shadows", "ao_1", "shadows_one")
 DENOISE_FRAMES = 16  # a denoised configuration's image: its 16th frame (SVGF's history fills), against 16 accumulated
 ALL_CONFIGS = (list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
@@ -76,7 +79,7 @@ def quality_options(config: str) -> list[str]:
     """The forward renderer with only this configuration's effect ray traced."""
     base = config.partition("+")[0]
     _, sets = CONFIGS[base]
-    if base == "hybrid":
+    if base.startswith("hybrid"):
         return list(sets)
     effect = HYBRID_EFFECT[base]
     return sets + [f"hybrid.{e}={'true' if e == effect else 'false'}" for e in HYBRID_EFFECTS]
@@ -138,12 +141,16 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
     ft = stats(times)
     mean_rays = float(np.mean(rays))
     kind = renderer.profiler.kind
+    # GPU work of the frame: GL's timer queries and a GPU backend's timestamps; the rest of the
+    # frame time is the host's (Python, waits, transfers)
+    gpu_ms = float(sum(np.mean(v) for k, v in passes.items() if kind.get(k) == "gpu"))
     return {"config": config, "pass": pass_name, "options": sets, "accumulate": config.endswith("+acc"),
             "frames": len(times), "frame_ms": ft, "fps": 1000.0 / ft["mean"], "rays_per_frame": mean_rays,
             "mrays_per_s": mean_rays / ft["mean"] / 1e3,
             "passes_ms": {k: float(np.mean(v)) for k, v in passes.items()},
             "pass_kind": {k: kind.get(k, "cpu") for k in passes},
-            "transfer_ms": float(sum(np.mean(passes[k]) for k in ("gbuffer_readback", "upload") if k in passes))}
+            "transfer_ms": float(sum(np.mean(passes[k]) for k in TRANSFERS if k in passes)),
+            "gpu_ms": gpu_ms, "host_overhead_ms": ft["mean"] - gpu_ms}
 
 
 def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int,

@@ -140,9 +140,15 @@ def cmd_devices(args) -> int:
     try:
         ctx = create_headless_context()
         gl = ctx.info["GL_RENDERER"]
-        ctx.release()
     except UserError as e:
-        gl = f"none ({e})"
+        ctx, gl = None, f"none ({e})"
+    if ctx is not None:
+        from app.raster.interop import describe
+
+        for r in rows:  # how the hybrid frame's G-buffer and images move between GL and the device
+            if r["available"] and r["name"] != "embree":
+                r["gl_sharing"] = describe(ctx, r["name"])
+        ctx.release()
     auto = resolve("auto")
     if args.json:
         print(json.dumps({"gl": gl, "backends": rows, "auto": auto}, indent=2))
@@ -153,6 +159,8 @@ def cmd_devices(args) -> int:
         kind = "GPU" if r["hardware"] else "CPU"
         state = f"available, {kind}" if r["available"] else "not available"
         print(f"  {r['name']:<7} {state:<15} {r['device']}")
+        if "gl_sharing" in r:
+            print(f"  {'':<7} {'':<15} OpenGL <-> {r['name']}: {r['gl_sharing']}")
     print(f"tracer=auto picks: {auto}" + ("" if auto != "embree" else " (no GPU with ray tracing here)"))
     return 0
 

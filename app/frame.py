@@ -31,6 +31,7 @@ class Frame:
     wanted: frozenset = frozenset()  # the channels the graph reads from the pass now running
     jitter: tuple = (0.0, 0.0)  # subpixel offset of this frame's samples (pixels: right, down; app/camera.py)
     moved: bool = False  # the camera moved since the last frame, whose accumulation goes on (reproject)
+    interop: object = None  # app.raster.interop.Interop: memory shared with the backend's device, or None
 
     @property
     def aspect(self) -> float:

@@ -64,6 +64,8 @@ def run_shot(args) -> int:
     _render_frames(renderer, camera, width, height, args.pass_name, args.frames,
                    first=watch_first_frame(tracer, keys))  # the first frame compiles what is missing
     elapsed = time.perf_counter() - t0
+    for line in renderer.notices:
+        print(f"rtlab: {line}", file=sys.stderr, flush=True)
     display, linear = renderer.read_display(), (renderer.read_linear() if args.raw else None)
     note = ""
     if compare:

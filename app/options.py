@@ -37,6 +37,9 @@ class GlobalOptions:
     tracer: str = opt("embree", "ray-tracing backend: embree (CPU), vulkan or cuda (Slang on a GPU, or Vulkan "
                       "on lavapipe without one), auto (a GPU with ray tracing if there is one, else embree)",
                       choices=CHOICES)
+    interop: str = opt("auto", "how GL and a GPU ray-tracing device exchange the G-buffer and images: auto (memory "
+                       "both share, where the drivers can; else copies through host memory) or copy (always copies)",
+                       choices=("auto", "copy"))
 
 
 register_group("", GlobalOptions)

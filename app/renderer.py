@@ -33,7 +33,10 @@ class Job:
     gl_after: list  # passes run in finish() (GL thread), the tail included
     wanted: dict  # pass -> the channels the rest of the graph reads from it
     present: bool = False  # the backend accumulates and tone-maps on its device (the GL tail does not run)
-    presented: tuple | None = None  # (running mean on the device, 8-bit image, accumulation count)
+    presented: tuple | None = None  # (running mean on the device, 8-bit image or its Link, accumulation count)
+    readback: tuple = ()  # channels the backend makes that the GL passes after it read
+    links: dict | None = None  # shared memory (app/raster/interop.py) for readback and "display", made here
+    exported: tuple = ()  # the readback channels the backend wrote into their links (the rest are copied)
 
     @property
     def cpu(self) -> bool:
@@ -74,6 +77,9 @@ class Renderer:
         self.uploads = Uploads(ctx)
         self.gpu = None
         self.rt = None  # the ray-tracing backend (rt.backend.Backend), made on first use
+        self.interop = None  # memory shared with self.rt's device (app/raster/interop.py), or None: copies
+        self._interop_checked = None  # the backend whose sharing was tried
+        self.notices: list[str] = []  # lines said once (the CLI prints them, the viewer shows them)
         self.scene = None
         self.set_scene(scene)
         self._state = None
@@ -92,6 +98,7 @@ class Renderer:
         if self.gpu is not None:
             self.gpu.release()
         if self.rt is not None:
+            self._drop_interop()
             self.rt.close()
             self.rt = None
         self.scene = scene
@@ -120,9 +127,55 @@ class Renderer:
                     self.options.set("tracer", self.rt.name)
                 raise
             if self.rt is not None:
+                self._drop_interop()
                 self.rt.close()
             self.rt = backend
         return self.rt
+
+    def sharing(self, backend):
+        """The memory this GL context shares with backend's device (app/raster/interop.py), or
+        None where images go through host memory: option interop=copy, a CPU backend, or a
+        driver without sharing (said once in notices)."""
+        from app.raster.interop import Interop, Unavailable
+
+        if backend is None or self.options.get("interop") == "copy" or not hasattr(backend, "shared_buffer"):
+            return None
+        if self._interop_checked is not backend:
+            self._drop_interop()
+            self._interop_checked = backend
+            try:
+                self.interop = Interop.create(self.ctx, backend)
+            except Unavailable as e:
+                note = f"{backend.name}: images go through host memory ({e})"
+                if note not in self.notices:
+                    self.notices.append(note)
+            except DeviceError:
+                self.options.set("tracer", "embree")
+                raise
+        return self.interop
+
+    def _links(self, frame: Frame, job: Job) -> dict | None:
+        """The shared memory of this frame's images that GL takes from the device; None (and
+        copies from now on, said once) if the driver refuses it."""
+        from app.raster.interop import Unavailable
+
+        n = frame.width * frame.height
+        try:
+            links = {name: frame.interop.link(f"rt.{name}", 16 * n) for name in job.readback}
+            if job.present:
+                links["display"] = frame.interop.link("display", 4 * n)
+            return links
+        except Unavailable as e:
+            self.notices.append(f"{frame.backend.name}: images go through host memory ({e})")
+            self._drop_interop()
+            self._interop_checked = frame.backend  # not tried again for this backend
+            frame.interop = None
+            return None
+
+    def _drop_interop(self) -> None:
+        if self.interop is not None:
+            self.interop.release()
+        self.interop, self._interop_checked = None, None
 
     def environment(self) -> Environment:
         env = self.options.get("env")
@@ -200,6 +253,7 @@ class Renderer:
         frame = Frame(self.ctx, self.scene, self.gpu, camera, self.prev_camera or camera, width, height, self.options,
                       self.profiler, self.environment(), index, self.seed, pass_name, backend)
         frame.moved = moved
+        frame.interop = self.sharing(backend)
         if self.jittering(pass_name):
             frame.jitter = subpixel_jitter(frame.index)
         job = Job(frame, state, pass_name, names[:first], names[first:last], names[last:],
@@ -208,6 +262,11 @@ class Renderer:
         if (backend is not None and hasattr(backend, "present") and job.gl_after == ["accumulation", "display"]
                 and pass_name not in CHANNEL_VIEWS):
             job.present, job.gl_after = True, []
+        made = {c for n in job.traced for c in self.passes[n].writes}
+        read = {c for n in job.gl_after for c in self.passes[n].reads}
+        job.readback = tuple(sorted(made & read))
+        if frame.interop is not None:  # GL objects are made on this (the GL) thread
+            job.links = self._links(frame, job)
         self._run(job, job.gl_before)
         return job
 
@@ -222,11 +281,20 @@ class Renderer:
             if job.present:
                 with self.profiler.cpu("present"):
                     job.presented = self._present(job)
+            if job.links:  # the images GL reads, written into the memory it shares
+                with self.profiler.cpu("share"):
+                    channels = job.frame.channels
+                    job.exported = tuple(n for n in job.readback if hasattr(channels.get(n), "buffer"))
+                    for name in job.exported:  # device images (a G-buffer view is a host array)
+                        backend.export(channels[name], job.links[name].device)
+                    job.frame.interop.device_done()
         except DeviceError:
             self.options.set("tracer", "embree")  # the next frame (ray_tracing) builds Embree's
             raise
-        self.profiler.count("rays", backend.rays_traced - rays0)
-        for name, ms in backend.gpu_ms.items():  # a GPU backend's own timestamps
+        with self.profiler.cpu("counters"):  # the frame's ray count and GPU timestamps, read once it is done
+            self.profiler.count("rays", backend.rays_traced - rays0)
+            gpu_ms = backend.gpu_ms
+        for name, ms in gpu_ms.items():  # a GPU backend's own timestamps
             self.profiler.record(f"{name}_gpu", ms, "gpu")
 
     def _present(self, job: Job) -> tuple:
@@ -241,7 +309,11 @@ class Renderer:
             weight = 0.0
         else:
             weight, count = 1.0 / (count + 1), count + 1
-        mean, display = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")))
+        shared = (job.links or {}).get("display")
+        mean, display = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")),
+                                              shared.device if shared is not None else None)
+        if shared is not None:  # GL takes the image from the memory it shares (finish)
+            return mean, shared, count
         with self.profiler.cpu("device_readback"):  # the one transfer of the frame: 8 bits a channel
             image = frame.backend.to_host(display)
         return mean, image, count
@@ -249,15 +321,23 @@ class Renderer:
     def finish(self, job: Job) -> Frame:
         """Uploads of what the backend made for GL passes, then the rest: accumulation, display."""
         frame = job.frame
+        if job.links:
+            with self.profiler.cpu("share"):
+                frame.interop.to_gl([job.links[n] for n in (*job.exported, "display") if n in job.links])
+                for name in job.exported:
+                    frame.channels[name] = self.uploads.from_buffer(name, job.links[name].gl, frame.width,
+                                                                    frame.height)
         if job.presented is not None:
             mean, image, self.accumulation.count = job.presented
             frame.channels["accumulated"] = mean
             with self.profiler.cpu("upload"):
-                frame.channels["display"] = self.uploads.upload_rgba8("display", image)
+                if job.links and "display" in job.links:
+                    frame.channels["display"] = self.uploads.rgba8_from_buffer("display", image.gl, frame.width,
+                                                                               frame.height)
+                else:
+                    frame.channels["display"] = self.uploads.upload_rgba8("display", image)
         if job.traced:
-            made = {c for n in job.traced for c in self.passes[n].writes}
-            read = {c for n in job.gl_after for c in self.passes[n].reads}
-            for name in made & read & set(frame.channels):
+            for name in (set(job.readback) - set(job.exported)) & set(frame.channels):
                 with self.profiler.cpu("device_readback"):  # nothing to move for Embree's numpy images
                     try:
                         image = frame.backend.to_host(frame.channels[name])
@@ -301,4 +381,5 @@ class Renderer:
         self.uploads.release()
         self.gpu.release()
         if self.rt is not None:
+            self._drop_interop()
             self.rt.close()

@@ -16,6 +16,7 @@ TECHNIQUES = [
     ("Reflections", "reflections"), ("Shadows (all lights)", "shadows_all"), ("Shadows (one light)", "shadows_one"),
     ("GI, 1 ray/pixel", "gi_1"), ("GI, 4 rays/pixel", "gi_4"), ("GI + shadows", "gi_shadows"),
     ("AO, 1 ray/pixel", "ao_1"), ("AO, 4 rays/pixel", "ao_4"), ("Hybrid (RT shadows + RT AO)", "hybrid"),
+    ("Hybrid (RT shadows + RT GI)", "hybrid_gi"),
 ]
 
 

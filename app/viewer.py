@@ -302,6 +302,10 @@ class Viewer:
                     c.track.advance(self.fly.camera, rw, rh, c.pass_name, start_new)
             except UserError as e:
                 self.panel.error = str(e)
+            notices = self.renderer.notices  # said once: how images move between GL and the device
+            if notices:
+                self.panel.message = notices[-1]
+                notices.clear()
             self._show(w, h)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
 

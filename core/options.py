@@ -9,6 +9,7 @@ of range are refused (never silently clamped) so a typo cannot produce a mislead
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import field
 
 from core.errors import UserError
@@ -62,6 +63,12 @@ def _parse_value(key: str, f: dataclasses.Field, text: str):
     return t
 
 
+@functools.lru_cache(maxsize=None)
+def _fields_of(cls) -> dict:
+    """An options dataclass's fields by name (looked up for every option read: once per class)."""
+    return {f.name: f for f in dataclasses.fields(cls)}
+
+
 class Options:
     """All option groups of a session, addressed by flat keys."""
 
@@ -72,7 +79,7 @@ class Options:
     def _field(self, key: str):
         group, _, name = key.rpartition(".")
         obj = self.groups.get(group)
-        fields = {f.name: f for f in dataclasses.fields(obj)} if obj is not None else {}
+        fields = _fields_of(type(obj)) if obj is not None else {}
         if name not in fields:
             raise UserError(f"unknown option {key!r}; valid keys: {', '.join(self.keys())}")
         return obj, fields[name]
@@ -107,7 +114,8 @@ class Options:
         return {"key": key, "default": f.default, **f.metadata}
 
     def as_dict(self) -> dict:
-        return {k: self.get(k) for k in self.keys()}
+        return {f"{group}.{name}" if group else name: getattr(obj, name)
+                for group, obj in self.groups.items() for name in _fields_of(type(obj))}
 
     def state(self) -> tuple:
         """Hashable snapshot; a change means the frame is dirty."""

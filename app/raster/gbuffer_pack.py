@@ -31,8 +31,22 @@ class GBufferPackPass(Pass):
             t.fbo.viewport = (0, 0, frame.width, frame.height)
             bind_channels(prog, frame, SOURCES)
             vao.render(vertices=3)
+        if frame.interop is not None:  # into memory the ray-tracing device shares: no host copy
+            with frame.profiler.cpu("gbuffer_share"):
+                frame.channels["gbuffer_packed"] = self.share(frame)
+            return
         with frame.profiler.cpu("gbuffer_readback"):
             frame.channels["gbuffer_packed"] = self.read()
+
+    def share(self, frame) -> dict:
+        """The packed targets copied on the GPU into memory shared with the backend's device (as
+        GL stores them: bottom row first); returns the device's buffers."""
+        links = {}
+        for name in ("geometry", "material"):
+            links[name] = frame.interop.link(f"gbuffer.{name}", 16 * frame.width * frame.height)
+            self.targets[name].read_into(links[name].gl)
+        frame.interop.to_device(list(links.values()))
+        return {name: link.device for name, link in links.items()}
 
     def read(self) -> dict:
         """The packed targets as GL stores them (bottom row first): uint32 H x W x 4 each."""

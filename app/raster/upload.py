@@ -37,6 +37,25 @@ class Uploads:
         tex.write(buf)
         return tex
 
+    def from_buffer(self, name: str, buffer, width: int, height: int):
+        """A GL buffer holding an RGBA32F image as a texture upload takes it (bottom row first:
+        rt/slang's export into shared memory) into the name's texture, on the GPU."""
+        tex = self._target(name, "f4").ensure(width, height)["c"]
+        tex.write(buffer)
+        return tex
+
+    def rgba8_from_buffer(self, name: str, buffer, width: int, height: int):
+        """As from_buffer, for an RGBA8 image (rows bottom-up)."""
+        tex = self._target(name, "f1").ensure(width, height)["c"]
+        tex.write(buffer)
+        return tex
+
+    def _target(self, name: str, dtype: str) -> Targets:
+        t = self.targets.get(name)
+        if t is None:
+            t = self.targets[name] = Targets(self.ctx, {"c": (4, dtype)})
+        return t
+
     def upload_rgba8(self, name: str, image: np.ndarray):
         """image: H x W x 4 uint8, rows bottom-up as GL stores them; returns the texture."""
         h, w = image.shape[:2]

@@ -78,8 +78,10 @@ class SlangBackend(Backend):
         self._pipelines: dict = {}
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
-        self._counted = 0  # rays counted on the host (primary rays); the effects count theirs on the device
-        self.gpu_ms: dict = {}  # the current frame's dispatches: name -> GPU time (ms)
+        self._counted = 0  # rays counted: on the host (primary rays), and the device counter's increments read
+        self._counter_read = 0  # the device counter's value when last read (it wraps at 2^32: differences are taken)
+        self._counter_stale = False  # work that counts rays was submitted since the counter was last read
+        self._timers: dict = {}  # the current frame's dispatches: name -> their GPU time (ms) when called
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
         self._log_count = self._buffer("log.count", 1, 4)
         self._counter = self._buffer("rays_traced", 1, 4)
@@ -91,9 +93,20 @@ class SlangBackend(Backend):
         return mode == "hybrid"
 
     @property
+    def gpu_ms(self) -> dict:
+        """The current frame's dispatches' GPU times (ms): read at the end of the frame, since
+        reading waits for the device."""
+        return {name: timer() for name, timer in self._timers.items()}
+
+    @property
     def rays_traced(self) -> int:
-        """Rays traced since creation (reads the device's counter back: waits for the device)."""
-        return self._counted + int(self._counter.to_numpy().view(np.uint32)[0])
+        """Rays traced since creation: reads the device's counter back (waits for the device)
+        only when rays were traced since the last read, once a frame where a frame is counted."""
+        if self._counter_stale:
+            value = int(self._counter.to_numpy().view(np.uint32)[0])
+            self._counted += (value - self._counter_read) % 2**32
+            self._counter_read, self._counter_stale = value, False
+        return self._counted
 
     @property
     def adapter(self) -> str:
@@ -117,14 +130,47 @@ class SlangBackend(Backend):
                                                                       usage=usage), (count, stride))
         return found[0]
 
+    # -- memory shared with OpenGL (app/raster/interop.py) -----------------------------------
+    def shared_buffer(self, nbytes: int) -> tuple:
+        """A device buffer of at least nbytes that OpenGL can use too, and how to reach it:
+        (buffer, ("fd", file descriptor, allocation size)) on Vulkan, where the memory is
+        exported; (buffer, ("cuda", device address, nbytes)) on CUDA, where GL's own buffer is
+        registered with CUDA and copied on the device. The caller keeps the buffer."""
+        import slangpy as spy
+
+        usage = spy.BufferUsage.unordered_access | spy.BufferUsage.shader_resource
+        if self.name == "vulkan":
+            # whole 64 KiB pages: the size GL imports is then the allocation's (NVIDIA wants it
+            # exact), with room past nbytes (llvmpipe wants 48 bytes more than it maps)
+            size = -(-(nbytes + 64) // 65536) * 65536
+            buffer = self.device.create_buffer(size=size, usage=usage | spy.BufferUsage.shared)
+            return buffer, ("fd", int(buffer.shared_handle.value), size)
+        buffer = self.device.create_buffer(size=nbytes, usage=usage)
+        return buffer, ("cuda", int(buffer.device_address), nbytes)
+
+    def cuda_context(self) -> int:
+        """The CUcontext of the CUDA device (its GL interop calls run in it)."""
+        handles = {str(h.type).split(".")[-1]: h.value for h in self.device.native_handles}
+        return int(handles["CUcontext"])
+
+    def wait(self) -> None:
+        """Until the device has done the work submitted so far."""
+        self.device.wait()
+
+    @_device_errors
+    def export(self, image: Image, out) -> None:
+        """image into the shared buffer out as GL's RGBA32F upload takes it (bottom row first,
+        four channels): shaders/rt/export_gl.slang."""
+        w, h = self.inputs.width, self.inputs.height
+        self._compute("export_gl", w, h, {"g_image": image.buffer, "g_out": out, "g_width": w, "g_height": h,
+                                          "g_channels": image.channels})
+
     # -- the frame ------------------------------------------------------------------------
     @_device_errors
     def begin_frame(self, inputs: FrameInputs) -> None:
         """Primary hits: the raster G-buffer unpacked on the device when the graph reads one
         back (wants_gbuffer), else rays from the eye through every pixel centre."""
         self.inputs = inputs
-        self._counted += int(self._counter.to_numpy().view(np.uint32)[0])  # the last frame's, before it can wrap
-        self._counter.copy_from_numpy(np.zeros(1, np.uint32))
         cam, w, h = inputs.camera, inputs.width, inputs.height
         right, up, forward = (np.asarray(v, np.float32) for v in cam.basis())
         self.gbuffer = {name: self._buffer(f"gbuffer.{name}", w * h, 16)
@@ -143,12 +189,17 @@ class SlangBackend(Backend):
             c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
             c["g_jitter"] = np.asarray(inputs.jitter, np.float32)
 
-        self.gpu_ms = {"primary": pipeline.dispatch(w, h, bind)}
+        self._timers = {"primary": pipeline.dispatch(w, h, bind)}
         self._counted += w * h
 
     def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
+        """packed: the two packed targets, as host arrays (GL's read-back) or as device buffers
+        that GL wrote into (memory shared with GL: app/raster/interop.py)."""
         buffers = {}
         for name, words in (("geometry", 4), ("material", 4)):  # device buffers reused from frame to frame
+            if not isinstance(packed[name], np.ndarray):
+                buffers[name] = packed[name]
+                continue
             buffers[name] = self._buffer(f"gbuffer.packed_{name}", w * h, 4 * words)
             # GL's read-back arrays are read-only views, which slangpy does not take: a writable copy
             staging = self._staging.get(name)
@@ -161,7 +212,7 @@ class SlangBackend(Backend):
             "g_width": w, "g_height": h, "g_eye": np.asarray(cam.eye, np.float32), "g_right": right, "g_up": up,
             "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2)),
             "g_jitter": np.asarray(self.inputs.jitter, np.float32)})
-        self.gpu_ms = {}
+        self._timers = {}
 
     def _compute(self, name: str, w: int, h: int, variables: dict) -> None:
         """Dispatch the compute kernel `name` of shaders/rt/<name>.slang (entry point `name`,
@@ -231,6 +282,7 @@ class SlangBackend(Backend):
                 c["g_far"] = float(self.scene.arrays.far)
                 c["g_ggx"] = int(self.scene.arrays.scene.uses_ggx(inputs.options.get("brdf")))
             c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
+            self._counter_stale = True
             self._environment(c["g_env"])
             c["g_width"] = w
             c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, stream)), np.uint32)
@@ -238,7 +290,7 @@ class SlangBackend(Backend):
             for name, value in values.items():
                 c[name] = value
 
-        self.gpu_ms[effect] = pipeline.dispatch(w, h, bind)
+        self._timers[effect] = pipeline.dispatch(w, h, bind)
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 
@@ -269,19 +321,19 @@ class SlangBackend(Backend):
             c["g_ray_log"], c["g_log_count"], c["g_log_capacity"] = log, self._log_count, 0
             c["g_count"], c["g_row"], c["g_sink"] = count, row, sink
 
-        ms = pipeline.dispatch(row, max(1, -(-count // row)), bind)
+        ms = pipeline.dispatch(row, max(1, -(-count // row)), bind)()
         return count, ms, logged <= capacity
 
     @_device_errors
-    def present(self, radiance, weight: float, exposure: float) -> tuple:
+    def present(self, radiance, weight: float, exposure: float, display=None) -> tuple:
         """The end of the frame on the device: the running mean of radiance (weight: 1 / (frames
         so far + 1), 1 restarts it, 0 keeps it) and its tone-mapped 8-bit RGBA (rows bottom-up,
-        as GL stores a texture). Returns both as device images: only the 8-bit one need leave
-        the device (to_host)."""
+        as GL stores a texture), into display where given (a buffer shared with GL). Returns
+        both as device images: only the 8-bit one need leave the device (to_host)."""
         inputs = self.inputs
         w, h = inputs.width, inputs.height
         mean = self._buffer("accumulated", w * h, 16)
-        display = self._buffer("display", w * h, 4)
+        display = self._buffer("display", w * h, 4) if display is None else display
         self._compute("present", w, h, {"g_radiance": radiance.buffer, "g_accumulated": mean, "g_display": display,
                                         "g_width": w, "g_height": h, "g_weight": float(weight),
                                         "g_exposure": float(exposure)})

@@ -26,9 +26,10 @@ class Pipeline:
                                                 miss_entry_points=list(misses),
                                                 hit_group_names=["hit"] if closest_hit else [])
 
-    def dispatch(self, width: int, height: int, bind) -> float:
-        """bind(cursor) sets the shader's globals; then one ray generation per pixel. Returns the
-        dispatch's GPU time in ms (timestamp queries: waits for the device)."""
+    def dispatch(self, width: int, height: int, bind):
+        """bind(cursor) sets the shader's globals; then one ray generation per pixel, submitted
+        without waiting. Returns a function that gives the dispatch's GPU time in ms (reading the
+        timestamps waits for the dispatch: call it once the frame's work is awaited anyway)."""
         import slangpy as spy
 
         self.timer.reset()
@@ -39,6 +40,11 @@ class Pipeline:
             rt_pass.dispatch_rays(0, [width, height, 1])
         encoder.write_timestamp(self.timer, 1)
         self.device.submit_command_buffer(encoder.finish())
-        self.device.wait()  # the timestamps are read once the work is done (Vulkan does not wait for them)
+        return self.elapsed
+
+    def elapsed(self) -> float:
+        """The last dispatch's GPU time in ms (waits for the device: Vulkan does not wait for
+        the timestamps themselves)."""
+        self.device.wait()
         t0, t1 = self.timer.get_timestamp_results(0, 2)
         return (t1 - t0) * 1e3

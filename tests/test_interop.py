@@ -1,0 +1,109 @@
+"""Memory shared between OpenGL and the Vulkan backend (app/raster/interop.py): here Mesa's
+llvmpipe imports lavapipe's exported memory. The shared path must give the images of the copy
+path through host memory bit for bit, fall back to it with one notice where sharing cannot be
+had, and recreate its memory on resizes and switches without leaking."""
+import os
+
+import numpy as np
+import pytest
+
+from app.camera import Camera
+from scenes.builtin import build_builtin
+from tests.test_rt import make
+
+SIZE = (40, 24)
+
+
+def frames(gl, scene, pass_name, sets, count=2, size=SIZE):
+    r = make(gl, scene, ["tracer=vulkan", *sets])
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    for _ in range(count):
+        r.render(cam, *size, pass_name)
+    out = r.read_linear(), r.read_display(), r.interop is not None, list(r.notices), set(r.profiler.names())
+    r.release()
+    return out
+
+
+@pytest.fixture(scope="module")
+def arcade():
+    return build_builtin("arcade")
+
+
+@pytest.mark.parametrize("pass_name,sets", [
+    ("hybrid", ()),  # raster G-buffer to the device, RT shadows and AO back to GL
+    ("hybrid", ("hybrid.gi=true", "hybrid.reflections=true")),
+    ("gi", ()),  # the device's own frame: only the display image goes to GL
+    ("normal", ("gbuffer=rt",)),  # a G-buffer view: a host image, copied even when sharing
+])
+def test_shared_memory_gives_the_copy_paths_images(gl, arcade, pass_name, sets):
+    linear, display, shared, notices, names = frames(gl, arcade, pass_name, sets)
+    linear_copy, display_copy, copied, _, copy_names = frames(gl, arcade, pass_name, (*sets, "interop=copy"))
+    assert shared and not copied and notices == []
+    assert "share" in names and "share" not in copy_names
+    if pass_name == "hybrid":
+        assert "gbuffer_share" in names and "gbuffer_readback" in copy_names
+    assert np.array_equal(linear, linear_copy)
+    assert np.array_equal(display, display_copy)
+    assert linear.mean() > 0.01
+
+
+def test_without_sharing_the_copies_run_and_say_so_once(gl, arcade, monkeypatch):
+    import app.raster.interop as interop
+
+    monkeypatch.setattr(interop, "same_gpu", lambda ctx, backend: False)
+    linear, display, shared, notices, names = frames(gl, arcade, "hybrid", ())
+    linear_copy, display_copy, *_ = frames(gl, arcade, "hybrid", ("interop=copy",))
+    assert not shared and "gbuffer_readback" in names
+    assert len(notices) == 1 and "host memory" in notices[0] and "not the same GPU" in notices[0]
+    assert np.array_equal(display, display_copy)
+
+
+def test_a_check_that_reads_other_bytes_turns_sharing_off(gl, arcade, monkeypatch):
+    """Memory that GL does not see as the device wrote it (another GPU, a driver bug) is caught
+    by the pattern written through it when sharing starts."""
+    import app.raster.interop as interop
+
+    monkeypatch.setattr(interop._VulkanShare, "to_device", lambda self, links: None)
+    monkeypatch.setattr(interop._VulkanShare, "link", _broken_link(interop._VulkanShare.link))
+    _, _, shared, notices, _ = frames(gl, arcade, "gi", ())
+    assert not shared and "other bytes" in notices[0]
+
+
+def _broken_link(link):
+    """A link whose GL side is a separate buffer: what the device writes never reaches GL."""
+
+    def make_link(self, nbytes):
+        found = link(self, nbytes)
+        found.gl = self.ctx.buffer(reserve=nbytes)
+        return found
+
+    return make_link
+
+
+def test_resizes_and_switches_leak_no_shared_memory(gl, arcade):
+    """Each link's memory is a file descriptor exported by the device and one imported by GL:
+    sizes that change every frame, a scene switch and a backend switch leave the process with
+    the descriptors it had."""
+    r = make(gl, arcade, ["tracer=vulkan"])
+    cam = Camera.from_view(arcade.default_view(), arcade.diagonal)
+
+    def fds():
+        return len(os.listdir("/proc/self/fd"))
+
+    for size in ((32, 20), (30, 18), (32, 20)):  # the device lets go of freed memory a frame or two late
+        r.render(cam, *size, "hybrid")
+    links, before = len(r.interop.links), fds()
+    for k in range(12):
+        r.render(cam, 24 + 2 * k, 16 + k, "hybrid")
+        assert len(r.interop.links) == links
+    r.render(cam, 32, 20, "hybrid")
+    assert fds() <= before
+    r.set_scene(build_builtin("cafe"))
+    r.render(cam, 32, 20, "hybrid")
+    r.options.set("tracer", "embree")
+    r.render(cam, 32, 20, "hybrid")
+    assert r.interop is None
+    r.options.set("tracer", "vulkan")
+    r.render(cam, 32, 20, "hybrid")
+    assert r.interop is not None and fds() <= before
+    r.release()
