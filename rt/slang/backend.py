@@ -72,7 +72,9 @@ class Rgba8:
 class SlangBackend(Backend):
     def __init__(self, kind: str = "vulkan"):
         self.name = kind
-        self.device = open_device(kind)
+        self.device = open_device(kind)  # imports slangpy (without PyTorch: rt/slang/device.py)
+        import slangpy as spy
+
         self.scene: DeviceScene | None = None
         self.inputs: FrameInputs | None = None
         self._pipelines: dict = {}
@@ -82,10 +84,13 @@ class SlangBackend(Backend):
         self._counter_read = 0  # the device counter's value when last read (it wraps at 2^32: differences are taken)
         self._counter_stale = False  # work that counts rays was submitted since the counter was last read
         self._timers: dict = {}  # the current frame's dispatches: name -> their GPU time (ms) when called
+        self._encoder = None  # the frame's work, recorded in one command buffer and submitted at once (_submit)
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
         self._log_count = self._buffer("log.count", 1, 4)
         self._counter = self._buffer("rays_traced", 1, 4)
         self._counter.copy_from_numpy(np.zeros(1, np.uint32))
+        self._counter_host = self.device.create_buffer(size=4, memory_type=spy.MemoryType.read_back,
+                                                       usage=spy.BufferUsage.copy_destination)
 
     def wants_gbuffer(self, mode: str) -> bool:
         """The raster G-buffer only where the graph rasterises anyway (hybrid: the traced pixels
@@ -96,6 +101,7 @@ class SlangBackend(Backend):
     def gpu_ms(self) -> dict:
         """The current frame's dispatches' GPU times (ms): read at the end of the frame, since
         reading waits for the device."""
+        self._submit()
         return {name: timer() for name, timer in self._timers.items()}
 
     @property
@@ -103,7 +109,12 @@ class SlangBackend(Backend):
         """Rays traced since creation: reads the device's counter back (waits for the device)
         only when rays were traced since the last read, once a frame where a frame is counted."""
         if self._counter_stale:
-            value = int(self._counter.to_numpy().view(np.uint32)[0])
+            # copied with the frame's work into host-visible memory: reading it maps that memory
+            # (to_numpy of the device-local counter would stage a copy and wait again: 1.3 ms a
+            # frame on the H200's Vulkan)
+            self._encoding().copy_buffer(self._counter_host, 0, self._counter, 0, 4)
+            self.wait()
+            value = int(self._counter_host.to_numpy().view(np.uint32)[0])
             self._counted += (value - self._counter_read) % 2**32
             self._counter_read, self._counter_stale = value, False
         return self._counted
@@ -154,8 +165,21 @@ class SlangBackend(Backend):
         return int(handles["CUcontext"])
 
     def wait(self) -> None:
-        """Until the device has done the work submitted so far."""
+        """Until the device has done the frame's work so far."""
+        self._submit()
         self.device.wait()
+
+    def _encoding(self):
+        """The command encoder that the frame's dispatches are recorded in."""
+        if self._encoder is None:
+            self._encoder = self.device.create_command_encoder()
+        return self._encoder
+
+    def _submit(self) -> None:
+        """Submit what the frame recorded so far (before the host reads or waits for it)."""
+        if self._encoder is not None:
+            encoder, self._encoder = self._encoder, None
+            self.device.submit_command_buffer(encoder.finish())
 
     @_device_errors
     def export(self, image: Image, out) -> None:
@@ -170,6 +194,7 @@ class SlangBackend(Backend):
     def begin_frame(self, inputs: FrameInputs) -> None:
         """Primary hits: the raster G-buffer unpacked on the device when the graph reads one
         back (wants_gbuffer), else rays from the eye through every pixel centre."""
+        self._submit()  # the last frame's work goes first (host uploads below are not recorded)
         self.inputs = inputs
         cam, w, h = inputs.camera, inputs.width, inputs.height
         right, up, forward = (np.asarray(v, np.float32) for v in cam.basis())
@@ -189,7 +214,7 @@ class SlangBackend(Backend):
             c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
             c["g_jitter"] = np.asarray(inputs.jitter, np.float32)
 
-        self._timers = {"primary": pipeline.dispatch(w, h, bind)}
+        self._timers = {"primary": pipeline.dispatch(self._encoding(), w, h, bind)}
         self._counted += w * h
 
     def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
@@ -216,13 +241,11 @@ class SlangBackend(Backend):
 
     def _compute(self, name: str, w: int, h: int, variables: dict) -> None:
         """Dispatch the compute kernel `name` of shaders/rt/<name>.slang (entry point `name`,
-        compiled once) over w x h threads, and submit it."""
+        compiled once) over w x h threads, recorded with the frame's other work."""
         if name not in self._pipelines:
             self._pipelines[name] = self.device.create_compute_kernel(
                 self.device.load_program(f"{name}.slang", [name]))
-        encoder = self.device.create_command_encoder()
-        self._pipelines[name].dispatch(thread_count=[w, h, 1], command_encoder=encoder, vars=variables)
-        self.device.submit_command_buffer(encoder.finish())
+        self._pipelines[name].dispatch(thread_count=[w, h, 1], command_encoder=self._encoding(), vars=variables)
 
     def _bind_gbuffer(self, cursor) -> None:
         for name, buf in self.gbuffer.items():
@@ -290,7 +313,7 @@ class SlangBackend(Backend):
             for name, value in values.items():
                 c[name] = value
 
-        self._timers[effect] = pipeline.dispatch(w, h, bind)
+        self._timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind)
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 
@@ -301,6 +324,7 @@ class SlangBackend(Backend):
 
     def record(self, capacity: int) -> None:
         """Log every ray the effects trace until replay() (bench --perf), up to capacity rays."""
+        self._submit()
         self._recording = (self._buffer("log", 2 * max(capacity, 1), 16), int(capacity))
         self._log_count.copy_from_numpy(np.zeros(1, np.uint32))
 
@@ -308,6 +332,7 @@ class SlangBackend(Backend):
     def replay(self) -> tuple[int, float, bool]:
         """Trace the recorded rays again alone (shaders/rt/replay.slang); ends the recording.
         Returns (rays, GPU ms, whether every ray fitted in the log)."""
+        self._submit()
         log, capacity = self._recording
         self._recording = None
         logged = int(self._log_count.to_numpy().view(np.uint32)[0])
@@ -321,7 +346,9 @@ class SlangBackend(Backend):
             c["g_ray_log"], c["g_log_count"], c["g_log_capacity"] = log, self._log_count, 0
             c["g_count"], c["g_row"], c["g_sink"] = count, row, sink
 
-        ms = pipeline.dispatch(row, max(1, -(-count // row)), bind)()
+        timer = pipeline.dispatch(self._encoding(), row, max(1, -(-count // row)), bind)
+        self._submit()
+        ms = timer()
         return count, ms, logged <= capacity
 
     @_device_errors
@@ -343,6 +370,7 @@ class SlangBackend(Backend):
     def gbuffer_view(self, channel: str) -> np.ndarray:
         """A G-buffer channel of the device's primary hits, read back (a debugging view: one
         transfer a frame is fine); uncovered pixels 0, as on Embree."""
+        self._submit()
         inputs = self.inputs
         n = inputs.width * inputs.height
         read = {name: buf.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4) for name, buf in self.gbuffer.items()}
@@ -358,8 +386,10 @@ class SlangBackend(Backend):
 
     @_device_errors
     def to_host(self, image) -> np.ndarray:
+        self._submit()
         return image if isinstance(image, np.ndarray) else image.to_numpy()
 
     def close(self) -> None:
+        self._submit()
         self.scene = None
         self._buffers.clear()

@@ -26,20 +26,18 @@ class Pipeline:
                                                 miss_entry_points=list(misses),
                                                 hit_group_names=["hit"] if closest_hit else [])
 
-    def dispatch(self, width: int, height: int, bind):
-        """bind(cursor) sets the shader's globals; then one ray generation per pixel, submitted
-        without waiting. Returns a function that gives the dispatch's GPU time in ms (reading the
-        timestamps waits for the dispatch: call it once the frame's work is awaited anyway)."""
+    def dispatch(self, encoder, width: int, height: int, bind):
+        """bind(cursor) sets the shader's globals; then one ray generation per pixel, recorded in
+        encoder (the backend submits the frame's work at once). Returns a function that gives
+        the dispatch's GPU time in ms once the work is submitted (reading waits for it)."""
         import slangpy as spy
 
         self.timer.reset()
-        encoder = self.device.create_command_encoder()
         encoder.write_timestamp(self.timer, 0)
         with encoder.begin_ray_tracing_pass() as rt_pass:
             bind(spy.ShaderCursor(rt_pass.bind_pipeline(self.pipeline, self.table)))
             rt_pass.dispatch_rays(0, [width, height, 1])
         encoder.write_timestamp(self.timer, 1)
-        self.device.submit_command_buffer(encoder.finish())
         return self.elapsed
 
     def elapsed(self) -> float:
