@@ -166,11 +166,16 @@ class Renderer:
                 links["display"] = frame.interop.link("display", 4 * n)
             return links
         except Unavailable as e:
-            self.notices.append(f"{frame.backend.name}: images go through host memory ({e})")
-            self._drop_interop()
-            self._interop_checked = frame.backend  # not tried again for this backend
+            self._sharing_failed(frame.backend, e)
             frame.interop = None
             return None
+
+    def _sharing_failed(self, backend, error) -> None:
+        """Sharing that worked stopped working (a driver's refusal mid-run): copies from now on
+        for this backend, said once."""
+        self.notices.append(f"{backend.name}: images go through host memory ({error})")
+        self._drop_interop()
+        self._interop_checked = backend  # not tried again for this backend
 
     def _drop_interop(self) -> None:
         if self.interop is not None:
@@ -297,6 +302,27 @@ class Renderer:
         for name, ms in gpu_ms.items():  # a GPU backend's own timestamps
             self.profiler.record(f"{name}_gpu", ms, "gpu")
 
+    def _shared_to_gl(self, job: Job) -> dict:
+        """The links the device wrote this frame, handed to GL, and the textures GL passes read
+        filled from them; {} where there are none or the hand-over failed (the images are then
+        read back as without sharing, and sharing stays off, said once)."""
+        from app.raster.interop import Unavailable
+
+        frame = job.frame
+        if not job.links:
+            return {}
+        links = {n: job.links[n] for n in (*job.exported, "display") if n in job.links}
+        try:
+            with self.profiler.cpu("share"):
+                frame.interop.to_gl(list(links.values()))
+                for name in job.exported:
+                    frame.channels[name] = self.uploads.from_buffer(name, links[name].gl, frame.width, frame.height)
+        except Unavailable as e:
+            self._sharing_failed(frame.backend, e)
+            job.exported = ()
+            return {}
+        return links
+
     def _present(self, job: Job) -> tuple:
         """Accumulation and display on the backend's device, as AccumulationPass and DisplayPass
         do them in GL: the running mean (restarted, extended, or kept once max_frames is
@@ -313,7 +339,7 @@ class Renderer:
         mean, display = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")),
                                               shared.device if shared is not None else None)
         if shared is not None:  # GL takes the image from the memory it shares (finish)
-            return mean, shared, count
+            return mean, display, count
         with self.profiler.cpu("device_readback"):  # the one transfer of the frame: 8 bits a channel
             image = frame.backend.to_host(display)
         return mean, image, count
@@ -321,20 +347,16 @@ class Renderer:
     def finish(self, job: Job) -> Frame:
         """Uploads of what the backend made for GL passes, then the rest: accumulation, display."""
         frame = job.frame
-        if job.links:
-            with self.profiler.cpu("share"):
-                frame.interop.to_gl([job.links[n] for n in (*job.exported, "display") if n in job.links])
-                for name in job.exported:
-                    frame.channels[name] = self.uploads.from_buffer(name, job.links[name].gl, frame.width,
-                                                                    frame.height)
+        shared = self._shared_to_gl(job)
         if job.presented is not None:
             mean, image, self.accumulation.count = job.presented
             frame.channels["accumulated"] = mean
             with self.profiler.cpu("upload"):
-                if job.links and "display" in job.links:
-                    frame.channels["display"] = self.uploads.rgba8_from_buffer("display", image.gl, frame.width,
-                                                                               frame.height)
-                else:
+                if "display" in shared:
+                    frame.channels["display"] = self.uploads.rgba8_from_buffer("display", shared["display"].gl,
+                                                                               frame.width, frame.height)
+                else:  # read back here where sharing failed this frame
+                    image = image if isinstance(image, np.ndarray) else frame.backend.to_host(image)
                     frame.channels["display"] = self.uploads.upload_rgba8("display", image)
         if job.traced:
             for name in (set(job.readback) - set(job.exported)) & set(frame.channels):

@@ -69,6 +69,30 @@ def test_a_check_that_reads_other_bytes_turns_sharing_off(gl, arcade, monkeypatc
     assert not shared and "other bytes" in notices[0]
 
 
+@pytest.mark.parametrize("pass_name", ["hybrid", "ao"])
+def test_a_hand_over_that_fails_mid_run_falls_back_within_the_frame(gl, arcade, pass_name):
+    """A driver that refuses the hand-over after sharing started (CUDA's map failing): the frame
+    is read back through host memory instead, and the rest run without sharing."""
+    from app.raster.interop import Unavailable
+
+    r = make(gl, arcade, ["tracer=vulkan"])
+    cam = Camera.from_view(arcade.default_view(), arcade.diagonal)
+    r.render(cam, *SIZE, pass_name)
+
+    def refuse(links):
+        raise Unavailable("the driver refused")
+
+    r.interop._share.to_gl = refuse
+    r.render(cam, *SIZE, pass_name)
+    r.render(cam, *SIZE, pass_name)
+    linear, display, shared = r.read_linear(), r.read_display(), r.interop is not None
+    notices = list(r.notices)
+    r.release()
+    linear_copy, display_copy, *_ = frames(gl, arcade, pass_name, ("interop=copy",), count=3)
+    assert not shared and notices == ["vulkan: images go through host memory (the driver refused)"]
+    assert np.array_equal(linear, linear_copy) and np.array_equal(display, display_copy)
+
+
 def _broken_link(link):
     """A link whose GL side is a separate buffer: what the device writes never reaches GL."""
 
