@@ -1,5 +1,6 @@
 """`rtlab warmup`: every ray-traced pass rendered once, small, on the Embree backend, so that its
-compiled kernels are cached before a user's first frame; and the viewer's cold start, which runs
+compiled kernels are cached before a user's first frame, then on each GPU backend with hardware
+ray tracing (warm_gpu_shaders: slangpy's shader caches); and the viewer's cold start, which runs
 it in a background process and shows its progress.
 
 The passes compile in parallel processes (one per core, at most one per family of passes that
@@ -116,6 +117,50 @@ def run_warmup(jobs: int | None = None) -> int:
         print(f"{PROG}: error: compiling the kernels failed: {failures[0][:300]}", file=sys.stderr)
         return 1
     print(f"{PROG}: kernels compiled and cached in {time.perf_counter() - t0:.0f} s ({len(procs)} processes)")
+    return warm_gpu_shaders()
+
+
+GPU_MODES = ("ao", "shadows", "gi", "reflections", "reference", "hybrid")
+
+
+def warm_gpu_shaders(kinds: tuple[str, ...] | None = None) -> int:
+    """Each pass once on every GPU backend with hardware ray tracing here, so that slangpy's
+    on-disk caches (rt/slang/device.py) hold its shaders and pipelines before a user's first
+    frame. Software Vulkan (lavapipe) is left out: Mesa caches its pipelines itself, and
+    compiling them all costs minutes on a CPU. kinds: the backends to warm (default: those)."""
+    from app.camera import Camera
+    from app.gl_context import create_headless_context
+    from app.options import Options
+    from app.renderer import Renderer
+    from core.errors import UserError
+    from rt.slang.device import describe
+    from scenes.builtin import build_builtin
+
+    if kinds is None:
+        try:
+            kinds = tuple(k for k in ("cuda", "vulkan") if (info := describe(k)) is not None and not info.software)
+        except UserError:  # no slangpy
+            return 0
+    if not kinds:
+        return 0
+    ctx = create_headless_context()
+    scene = build_builtin("cafe")
+    camera = Camera.from_view(scene.default_view(), scene.diagonal)
+    for kind in kinds:
+        t0 = time.perf_counter()
+        options = Options()
+        options.apply([f"tracer={kind}", "hybrid.gi=true", "hybrid.reflections=true"])
+        renderer = Renderer(ctx, scene, options)
+        try:
+            for mode in GPU_MODES:
+                renderer.render(camera, 32, 18, mode)
+        except UserError as e:
+            print(f"{PROG}: error: the {kind} shaders: {e}", file=sys.stderr)
+            return 1
+        finally:
+            renderer.release()
+        print(f"{PROG}: the {kind} device's shaders compiled and cached in {time.perf_counter() - t0:.0f} s", flush=True)
+    ctx.release()
     return 0
 
 

@@ -131,3 +131,18 @@ def test_resizes_and_switches_leak_no_shared_memory(gl, arcade):
     r.render(cam, 32, 20, "hybrid")
     assert r.interop is not None and fds() <= before
     r.release()
+
+
+def test_warmup_fills_the_slang_caches(tmp_path):
+    """rtlab warmup's GPU step (here forced onto lavapipe, which it leaves out by default, and one
+    pass) leaves slangpy's module and shader caches under the cache folder."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path)}
+    code = "import app.warmup as w; w.GPU_MODES = ('ao',); raise SystemExit(w.warm_gpu_shaders(('vulkan',)))"
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "the vulkan device's shaders compiled and cached" in done.stdout
+    caches = tmp_path / "rtlab" / "slang" / "vulkan"
+    assert any((caches / "modules").iterdir()) and any(p.is_file() for p in (caches / "shaders").rglob("*"))
