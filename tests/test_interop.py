@@ -139,7 +139,11 @@ def test_warmup_fills_the_slang_caches(tmp_path):
     import subprocess
     import sys
 
-    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path)}
+    # a fresh cache folder for rtlab's caches; Mesa's own pipeline cache stays where it was (cold,
+    # lavapipe compiles a ray-tracing pipeline for minutes)
+    home_cache = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path),
+           "MESA_SHADER_CACHE_DIR": os.environ.get("MESA_SHADER_CACHE_DIR", home_cache)}
     code = "import app.warmup as w; w.GPU_MODES = ('ao',); raise SystemExit(w.warm_gpu_shaders(('vulkan',)))"
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]

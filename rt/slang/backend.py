@@ -84,7 +84,8 @@ class SlangBackend(Backend):
         self._counter_read = 0  # the device counter's value when last read (it wraps at 2^32: differences are taken)
         self._counter_stale = False  # work that counts rays was submitted since the counter was last read
         self._timers: dict = {}  # the current frame's dispatches: name -> their GPU time (ms) when called
-        self._encoder = None  # the frame's work, recorded in one command buffer and submitted at once (_submit)
+        self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
+        self._busy = False  # the frame's work was submitted since the last wait for the device
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
         self._log_count = self._buffer("log.count", 1, 4)
         self._counter = self._buffer("rays_traced", 1, 4)
@@ -101,19 +102,19 @@ class SlangBackend(Backend):
     def gpu_ms(self) -> dict:
         """The current frame's dispatches' GPU times (ms): read at the end of the frame, since
         reading waits for the device."""
-        self._submit()
+        self._wait_for_frame()
         return {name: timer() for name, timer in self._timers.items()}
 
     @property
     def rays_traced(self) -> int:
-        """Rays traced since creation: reads the device's counter back (waits for the device)
-        only when rays were traced since the last read, once a frame where a frame is counted."""
+        """Rays traced since creation: reads the device's counter back (waits for the device's
+        work, as the frame's end does anyway) only when rays were traced since the last read."""
         if self._counter_stale:
-            # copied with the frame's work into host-visible memory: reading it maps that memory
+            # each effect's dispatch copies the counter into host-visible memory with its own
+            # work (_run): reading it maps that memory, with no copy or submission of its own
             # (to_numpy of the device-local counter would stage a copy and wait again: 1.3 ms a
             # frame on the H200's Vulkan)
-            self._encoding().copy_buffer(self._counter_host, 0, self._counter, 0, 4)
-            self.wait()
+            self._wait_for_frame()
             value = int(self._counter_host.to_numpy().view(np.uint32)[0])
             self._counted += (value - self._counter_read) % 2**32
             self._counter_read, self._counter_stale = value, False
@@ -165,9 +166,17 @@ class SlangBackend(Backend):
         return int(handles["CUcontext"])
 
     def wait(self) -> None:
-        """Until the device has done the frame's work so far."""
+        """Until the device has done the frame's work so far, and any upload (copy_from_numpy
+        goes through the device's queue too)."""
         self._submit()
         self.device.wait()
+        self._busy = False
+
+    def _wait_for_frame(self) -> None:
+        """wait(), at once where nothing was submitted since the last wait (the frame's counters
+        and timestamps are read after the hand-over to GL has waited)."""
+        if self._busy or self._encoder is not None:
+            self.wait()
 
     def _encoding(self):
         """The command encoder that the frame's dispatches are recorded in."""
@@ -180,6 +189,7 @@ class SlangBackend(Backend):
         if self._encoder is not None:
             encoder, self._encoder = self._encoder, None
             self.device.submit_command_buffer(encoder.finish())
+            self._busy = True
 
     @_device_errors
     def export(self, image: Image, out) -> None:
@@ -216,6 +226,7 @@ class SlangBackend(Backend):
 
         self._timers = {"primary": pipeline.dispatch(self._encoding(), w, h, bind)}
         self._counted += w * h
+        self._submit()  # the device traces the primary rays while the host records the effects
 
     def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
         """packed: the two packed targets, as host arrays (GL's read-back) or as device buffers
@@ -238,6 +249,7 @@ class SlangBackend(Backend):
             "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2)),
             "g_jitter": np.asarray(self.inputs.jitter, np.float32)})
         self._timers = {}
+        self._submit()  # the device unpacks while the host records the effects
 
     def _compute(self, name: str, w: int, h: int, variables: dict) -> None:
         """Dispatch the compute kernel `name` of shaders/rt/<name>.slang (entry point `name`,
@@ -314,6 +326,7 @@ class SlangBackend(Backend):
                 c[name] = value
 
         self._timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind)
+        self._encoding().copy_buffer(self._counter_host, 0, self._counter, 0, 4)  # read by rays_traced
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 
@@ -347,7 +360,7 @@ class SlangBackend(Backend):
             c["g_count"], c["g_row"], c["g_sink"] = count, row, sink
 
         timer = pipeline.dispatch(self._encoding(), row, max(1, -(-count // row)), bind)
-        self._submit()
+        self.wait()
         ms = timer()
         return count, ms, logged <= capacity
 

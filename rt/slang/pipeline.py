@@ -28,8 +28,8 @@ class Pipeline:
 
     def dispatch(self, encoder, width: int, height: int, bind):
         """bind(cursor) sets the shader's globals; then one ray generation per pixel, recorded in
-        encoder (the backend submits the frame's work at once). Returns a function that gives
-        the dispatch's GPU time in ms once the work is submitted (reading waits for it)."""
+        encoder (the backend submits it). Returns a function that gives the dispatch's GPU time
+        in ms, to be called once the device has done the work (the backend's wait)."""
         import slangpy as spy
 
         self.timer.reset()
@@ -41,8 +41,7 @@ class Pipeline:
         return self.elapsed
 
     def elapsed(self) -> float:
-        """The last dispatch's GPU time in ms (waits for the device: Vulkan does not wait for
+        """The last dispatch's GPU time in ms, once its work is done (Vulkan does not wait for
         the timestamps themselves)."""
-        self.device.wait()
         t0, t1 = self.timer.get_timestamp_results(0, 2)
         return (t1 - t0) * 1e3
