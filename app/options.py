@@ -30,7 +30,8 @@ class GlobalOptions:
                        "of the image shown)", choices=("off", "svgf", "oidn"))
     gbuffer: str = opt("raster", "G-buffer source: raster (GPU) or rt (primary rays)", choices=("raster", "rt"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
-    env: str = opt("scene", "radiance of rays that miss: scene, black, sky or R,G,B", check=_check_env)
+    env: str = opt("scene", "radiance of rays that miss: scene (the file's; the studio for files with no "
+                     "lights), black, sky, studio or R,G,B", check=_check_env)
     brdf: str = opt("auto", "surface model: lambert (the study's: Lambert diffuse, mirror reflections), ggx "
                     "(glTF's metal-rough: Lambert + GGX specular) or auto (glTF files ggx, others lambert)",
                     choices=("auto", "lambert", "ggx"))

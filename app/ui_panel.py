@@ -121,6 +121,9 @@ class Panel:
             st = v.scene.stats()
             imgui.text(f"{st['triangles']:,} triangles, {st['lights']} lights, "
                        f"{st['emissive_triangles']:,} emissive")
+            studio = st["environment"] == "studio" and v.options.get("env") == "scene"
+            imgui.text(f"environment: {st['environment']}" + (" (no lights in the file: env=black for none)"
+                                                               if studio else ""))
         if imgui.collapsing_header("Render", imgui.TreeNodeFlags_.default_open.value):
             idx = ALL.index(v.pass_name)
             changed, idx = imgui.combo("pass", idx, list(ALL))

@@ -93,12 +93,14 @@ class View:
         return f"eye={f(self.eye)};target={f(self.target)};up={f(self.up)};fov={self.fov:.4g}"
 
 
-ENV_KINDS = ("black", "sky", "constant")
+ENV_KINDS = ("black", "sky", "studio", "constant")
 
 
 @dataclass
 class Environment:
-    """Radiance returned by rays that miss. 'sky' is a simple analytic gradient."""
+    """Radiance returned by rays that miss. 'sky' is a simple analytic gradient; 'studio' a
+    neutral grey one (a bright ceiling, a mid-grey horizon, a dark floor) that lights scene
+    files with no lights of their own (scenes.loaders.load_scene)."""
 
     kind: str = "black"
     color: tuple = (0.0, 0.0, 0.0)  # for "constant"; zenith tint scale for "sky"
@@ -112,12 +114,12 @@ class Environment:
         if self.kind == "constant":
             return np.broadcast_to(np.asarray(self.color, np.float32), (n, 3)).copy()
         y = np.clip(dirs[:, 1:2], -1.0, 1.0)
-        return sky_radiance(y) * np.float32(self.strength)
+        return sky_radiance(y, *GRADIENTS[self.kind]) * np.float32(self.strength)
 
     @staticmethod
     def parse(text: str) -> Environment:
         t = text.strip().lower()
-        if t in ("black", "sky"):
+        if t in ("black", "sky", "studio"):
             return Environment(t)
         parts = t.split(",")
         try:
@@ -125,7 +127,7 @@ class Environment:
         except ValueError:
             rgb = ()
         if len(rgb) != 3 or not all(np.isfinite(rgb)) or min(rgb) < 0:
-            raise UserError(f"env: expected black, sky or R,G,B with non-negative numbers, got {text!r}")
+            raise UserError(f"env: expected black, sky, studio or R,G,B with non-negative numbers, got {text!r}")
         return Environment("constant", rgb)
 
     def to_string(self) -> str:
@@ -137,15 +139,24 @@ class Environment:
 SKY_HORIZON = np.array([0.9, 0.95, 1.0], np.float32)
 SKY_ZENITH = np.array([0.25, 0.45, 0.9], np.float32)
 SKY_GROUND = np.array([0.25, 0.23, 0.2], np.float32)
+# the studio: a white ceiling, a grey horizon, a dark grey floor (neutral: no colour cast)
+STUDIO_HORIZON = np.array([0.5, 0.5, 0.5], np.float32)
+STUDIO_ZENITH = np.array([1.0, 1.0, 1.0], np.float32)
+STUDIO_GROUND = np.array([0.15, 0.15, 0.15], np.float32)
+# kind: its (horizon, zenith, ground); the same gradient in every backend (shaders/common.glsl,
+# rt/environment.py)
+GRADIENTS = {"sky": (SKY_HORIZON, SKY_ZENITH, SKY_GROUND), "studio": (STUDIO_HORIZON, STUDIO_ZENITH, STUDIO_GROUND)}
 
 
-def sky_radiance(y: np.ndarray) -> np.ndarray:
-    """Analytic sky: blue zenith, bright horizon, dim ground. Shared with shaders/sky.glsl."""
+def sky_radiance(y: np.ndarray, horizon=SKY_HORIZON, zenith=SKY_ZENITH, ground=SKY_GROUND) -> np.ndarray:
+    """The analytic gradient (the sky's by default: blue zenith, bright horizon, dim ground),
+    from the horizon to the zenith above and from half the horizon to the ground below.
+    Shared with shaders/common.glsl."""
     y = y.astype(np.float32)
     up = np.clip(y, 0.0, 1.0) ** 0.5
     down = np.clip(-y, 0.0, 1.0) ** 0.5
-    sky = SKY_HORIZON * (1 - up) + SKY_ZENITH * up
-    ground = SKY_HORIZON * (1 - down) * 0.5 + SKY_GROUND * down
+    sky = horizon * (1 - up) + zenith * up
+    ground = horizon * (1 - down) * 0.5 + ground * down
     return np.where(y >= 0, sky, ground).astype(np.float32)
 
 

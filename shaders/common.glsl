@@ -135,15 +135,19 @@ vec3 ggx_brdf(vec3 c_diff, vec3 f0, float alpha, vec3 n, vec3 v, vec3 l) {
 const vec3 SKY_HORIZON = vec3(0.9, 0.95, 1.0);
 const vec3 SKY_ZENITH = vec3(0.25, 0.45, 0.9);
 const vec3 SKY_GROUND = vec3(0.25, 0.23, 0.2);
+const vec3 STUDIO_HORIZON = vec3(0.5);
+const vec3 STUDIO_ZENITH = vec3(1.0);
+const vec3 STUDIO_GROUND = vec3(0.15);
 
-// env_kind: 0 black, 1 sky, 2 constant
+// env_kind: 0 black, 1 sky, 2 constant, 3 studio (scenes/model.py: GRADIENTS)
 vec3 env_radiance(int env_kind, vec3 env_color, float env_strength, vec3 dir) {
     if (env_kind == 0) return vec3(0.0);
     if (env_kind == 2) return env_color;
+    vec3 horizon = env_kind == 3 ? STUDIO_HORIZON : SKY_HORIZON;
     float y = clamp(dir.y, -1.0, 1.0);
     float up = sqrt(max(y, 0.0));
     float down = sqrt(max(-y, 0.0));
-    vec3 sky = SKY_HORIZON * (1.0 - up) + SKY_ZENITH * up;
-    vec3 ground = SKY_HORIZON * (1.0 - down) * 0.5 + SKY_GROUND * down;
+    vec3 sky = horizon * (1.0 - up) + (env_kind == 3 ? STUDIO_ZENITH : SKY_ZENITH) * up;
+    vec3 ground = horizon * (1.0 - down) * 0.5 + (env_kind == 3 ? STUDIO_GROUND : SKY_GROUND) * down;
     return (y >= 0.0 ? sky : ground) * env_strength;
 }

@@ -94,7 +94,7 @@ def test_scene_without_lights_renders_and_says_so(tmp_path):
     r = rtlab("shot", str(tmp_path / "dark.obj"), "--pass", "ao", "--size", "32x32", "--out", str(out),
               "--set", "env=sky")
     assert r.returncode == 0, r.stderr
-    assert "no lights and no emissive surfaces" in r.stderr and "Traceback" not in r.stderr
+    assert "no lights of its own" in r.stderr and "studio" in r.stderr and "Traceback" not in r.stderr
     assert out.exists()
 
 

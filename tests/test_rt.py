@@ -430,7 +430,7 @@ def test_recorded_frame_logs_every_ray_it_traces(gl, pass_name, sets):
     assert not log.overflowed and len(log) == 0
 
 
-@pytest.mark.parametrize("env", ["sky", "0.1,0.2,0.3", "black"])
+@pytest.mark.parametrize("env", ["sky", "studio", "0.1,0.2,0.3", "black"])
 def test_background_kernel_matches_environment(env):
     """The compiled environment lookup (backgrounds, missed GI rays) is scenes/model.py's."""
     from rt.embree.frame import RtFrame

@@ -11,7 +11,7 @@ MAT_TEXELS = 4
 TRI_TEX_WIDTH = 4096
 MAX_LIGHTS = 128
 KIND = {"point": 0, "spot": 1, "directional": 2, "proxy": 3}
-ENV_KIND = {"black": 0, "sky": 1, "constant": 2}
+ENV_KIND = {"black": 0, "sky": 1, "constant": 2, "studio": 3}
 
 # GL cube map face directions for texel coordinates sc, tc in [-1, 1]
 CUBE_FACES = (

@@ -1,11 +1,16 @@
 """Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply). Files are read by
-rtlab's own readers, which check every value before use (scenes/loaders/checks.py)."""
+rtlab's own readers, which check every value before use (scenes/loaders/checks.py); a file
+with no lights of its own opens under the studio environment."""
 from __future__ import annotations
 
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 from core.errors import UserError
+from scenes.builtin import is_builtin
+from scenes.model import Environment
 
 EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
 
@@ -13,14 +18,28 @@ EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
 def load_scene(spec: str):
     """Built-in name (optionally `name:detail`) or a path. Raises UserError with one clear line."""
     scene = _load(spec)
-    if not scene.has_light:
+    if not is_builtin(spec) and scene.environment.kind == "black" and not lit_by_itself(scene):
+        # as the glTF sample viewer and Blender light an asset: under an environment
+        scene.environment = Environment("studio")
+        warnings.warn(f"{scene.name}: no lights of its own: env=scene lights it with the built-in studio "
+                      "environment (env=black for none)", stacklevel=2)
+    elif not scene.has_light:
         warnings.warn(f"{scene.name}: no lights and no emissive surfaces: only the environment (env=...) and "
                       "ambient occlusion will show", stacklevel=2)
     return scene
 
 
+def lit_by_itself(scene) -> bool:
+    """Whether a scene has lights of its own: punctual lights, or surfaces of a constant
+    emission (a lamp's, a window's). Emission painted by a texture alone (decals, screens, as
+    on the Khronos DamagedHelmet) does not light a scene."""
+    used = set(np.unique(scene.material_ids).tolist()) if scene.material_ids.size else set()
+    return bool(scene.lights) or any(m.is_emissive and m.emissive_map is None
+                                     for k, m in enumerate(scene.materials) if k in used)
+
+
 def _load(spec: str):
-    from scenes.builtin import BUILTINS, build_builtin, is_builtin
+    from scenes.builtin import BUILTINS, build_builtin
 
     if is_builtin(spec):
         return build_builtin(spec)
