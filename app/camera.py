@@ -35,14 +35,21 @@ class Camera:
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Right, up, forward unit vectors (right-handed, camera looks along forward)."""
-        f = self.target - self.eye
-        f = f / max(np.linalg.norm(f), 1e-12)
-        r = np.cross(f, self.up)
-        if np.linalg.norm(r) < 1e-9:  # looking along up: pick any perpendicular
-            r = np.cross(f, [1.0, 0.0, 0.0] if abs(f[0]) < 0.9 else [0.0, 0.0, 1.0])
-        r = r / np.linalg.norm(r)
-        u = np.cross(r, f)
-        return r, u, f
+        # plain float arithmetic: np.cross and np.linalg.norm on 3-vectors cost ~0.1 ms a frame,
+        # and the basis is asked for several times a frame
+        fx, fy, fz = (float(t) - float(e) for t, e in zip(self.target, self.eye))
+        n = max((fx * fx + fy * fy + fz * fz) ** 0.5, 1e-12)
+        fx, fy, fz = fx / n, fy / n, fz / n
+        ux, uy, uz = (float(c) for c in self.up)
+        rx, ry, rz = fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux
+        n = (rx * rx + ry * ry + rz * rz) ** 0.5
+        if n < 1e-9:  # looking along up: pick any perpendicular
+            ux, uy, uz = (1.0, 0.0, 0.0) if abs(fx) < 0.9 else (0.0, 0.0, 1.0)
+            rx, ry, rz = fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux
+            n = (rx * rx + ry * ry + rz * rz) ** 0.5
+        rx, ry, rz = rx / n, ry / n, rz / n
+        r, f = np.array((rx, ry, rz)), np.array((fx, fy, fz))
+        return r, np.array((ry * fz - rz * fy, rz * fx - rx * fz, rx * fy - ry * fx)), f
 
     def view_matrix(self) -> np.ndarray:
         r, u, f = self.basis()

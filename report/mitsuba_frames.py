@@ -5,8 +5,8 @@ not a dependency of rtlab).
 
 Each scene is rtlab's own (scenes.builtin: the same triangles, camera, lights and emitters),
 shaded by Mitsuba with its diffuse BSDF of each material's base colour (the study's Lambert),
-its point, spot and directional emitters for rtlab's lights and area emitters for emissive
-materials. Two integrators, each at 1 sample per pixel and a box filter, as rtlab's frames:
+its point, spot and directional emitters for rtlab's lights, area emitters for emissive
+materials and an environment map of the sky where the scene has one. Two integrators, each at 1 sample per pixel and a box filter, as rtlab's frames:
 - direct: `direct` with one emitter sample and one BSDF sample (rtlab: shadows_one);
 - one_bounce: `path` with max_depth 3, direct light plus one bounce (rtlab: gi_shadows).
 A frame is mi.render(...) with a new seed, evaluated and waited for (dr.sync_thread), after
@@ -88,6 +88,14 @@ def mitsuba_scene(mi, scene, integrator: dict, size: tuple, folder: str) -> dict
     env = scene.environment
     if env.kind == "constant" and max(env.color) > 0:
         d["env"] = {"type": "constant", "radiance": _rgb(env.color)}
+    elif env.kind in ("sky", "studio"):
+        # the analytic gradient as a latitude-longitude map (Mitsuba's envmap: +Y up, row 0 the
+        # zenith); it depends on height alone, so the azimuth's convention does not matter
+        rows, cols = 128, 256
+        y = np.cos(np.pi * (np.arange(rows) + 0.5) / rows).astype(np.float32)
+        dirs = np.stack([np.sqrt(1 - y * y), y, np.zeros_like(y)], 1)
+        image = np.repeat(env.radiance(dirs)[:, None, :], cols, axis=1)
+        d["env"] = {"type": "envmap", "bitmap": mi.Bitmap(np.ascontiguousarray(image, np.float32))}
     return d
 
 
