@@ -2,13 +2,14 @@
 // SVGF, step 3: one edge-avoiding a-trous wavelet iteration (5x5 B3-spline taps, `step` texels
 // apart): weights stop at depth (the pixel's plane), normal and luminance edges, the latter
 // scaled by the 3x3-blurred standard deviation, and the variance is filtered with the squared
-// weights. `remodulate` multiplies the albedo back (the last iteration).
+// weights. `remodulate` multiplies the albedo back and adds the emission (the last iteration).
 #include "svgf_common.glsl"
 in vec2 uv;
 uniform sampler2D color;        // rgb: demodulated lighting, a: variance
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;
+uniform sampler2D g_emissive;   // the first hit's emission, added back by the last iteration
 uniform sampler2D g_face;
 uniform sampler2D radiance;     // passed through where nothing is covered (the sky)
 uniform int step;
@@ -59,5 +60,9 @@ void main() {
             sum_w += w;
         }
     vec4 f = sum_w > 0.0 ? vec4(sum.rgb / sum_w, sum.a / (sum_w * sum_w)) : c;
-    out_color = remodulate != 0 ? vec4(f.rgb * demod_albedo(texelFetch(g_albedo, px, 0).rgb), 1.0) : f;
+    if (remodulate != 0) {
+        vec3 em = emission(g_emissive, texelFetch(radiance, px, 0).rgb, px);
+        f = vec4(f.rgb * demod_albedo(texelFetch(g_albedo, px, 0).rgb) + em, 1.0);
+    }
+    out_color = f;
 }

@@ -1,5 +1,6 @@
 #version 430
-// SVGF, step 1: temporal accumulation of the demodulated lighting and of its first two
+// SVGF, step 1: temporal accumulation of the demodulated lighting (the radiance less the first
+// hit's emission, over its albedo) and of its first two
 // luminance moments, through the motion vectors. The previous frame's four texels around the
 // reprojected point are each kept only where they saw the same surface (reproject_common.glsl:
 // same_surface, as the reprojected accumulation tests it): disocclusions restart at the current
@@ -10,6 +11,7 @@ uniform sampler2D radiance;     // this frame's noisy radiance
 uniform sampler2D g_position;   // xyz, w: linear depth
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;
+uniform sampler2D g_emissive;   // the first hit's emission: not filtered (svgf_common.glsl: emission)
 uniform sampler2D g_face;       // w > 0: covered
 uniform sampler2D g_motion;     // pixels moved since the previous frame (no jitter)
 uniform sampler2D prev_color;   // demodulated lighting, a: history length (frames)
@@ -33,7 +35,7 @@ void main() {
     }
     vec4 pos = texelFetch(g_position, px, 0);
     vec3 n = texelFetch(g_normal, px, 0).xyz;
-    vec3 illum = rad / demod_albedo(texelFetch(g_albedo, px, 0).rgb);
+    vec3 illum = (rad - emission(g_emissive, rad, px)) / demod_albedo(texelFetch(g_albedo, px, 0).rgb);
     float l = luma(illum);
     vec2 prev = previous_texel(gl_FragCoord.xy, texelFetch(g_motion, px, 0).xy);
     ivec2 base = ivec2(floor(prev));

@@ -1,6 +1,6 @@
 """Intel Open Image Denoise (`denoise=oidn`, through `pyoidn`, on the CPU): the image shown
 (the running mean while accumulating, else the frame) denoised with the raster G-buffer's
-albedo and normal as auxiliary images. Runs on the GL thread: the three images are read back,
+albedo and normal as auxiliary images; the first hit's emission and the sky bypass it. Runs on the GL thread: the three images are read back,
 filtered, and the result uploaded in place of the accumulated image."""
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def _read(tex) -> np.ndarray:
 class OidnPass(Pass):
     name = "oidn"
     options = OidnOptions
-    reads = ("accumulated", "g_albedo", "g_normal", "g_face")
+    reads = ("accumulated", "g_albedo", "g_normal", "g_emissive", "g_face")
     writes = ("accumulated",)
 
     def __init__(self, ctx):
@@ -45,11 +45,16 @@ class OidnPass(Pass):
             raise UserError(f"denoise=oidn needs the pyoidn package ({e})") from None
         quality = frame.options.group("oidn").quality
         with frame.profiler.cpu("oidn"):
-            color = np.ascontiguousarray(np.maximum(_read(frame.channels["accumulated"])[..., :3], 0.0))
+            shown = np.maximum(_read(frame.channels["accumulated"])[..., :3], 0.0)
             covered = _read(frame.channels["g_face"])[..., 3:4] > 0  # no surface: no albedo, no normal
+            # the first hit's emission is not filtered (light sources stay sharp and as bright):
+            # left out of OIDN's input and added back, no more than the pixel's radiance
+            emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered
+            color = np.ascontiguousarray(shown - emission)
             albedo = np.ascontiguousarray(np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) * covered)
             normal = np.ascontiguousarray(_read(frame.channels["g_normal"])[..., :3] * covered)
             out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
+            out = np.where(covered, np.maximum(out, 0.0) + emission, shown)  # the sky as it was
             w, h = frame.width, frame.height
             if self.out is None or self.out.size != (w, h):
                 if self.out is not None:

@@ -1,6 +1,7 @@
 """SVGF denoiser (`denoise=svgf`): spatio-temporal variance-guided filtering (Schied et al. 2017)
 of a ray-traced pass's radiance, as GL passes on the raster G-buffer, so it serves every
-backend: temporal accumulation of the lighting demodulated by albedo through the motion
+backend: the first hit's emission left out (added back at the end: light sources stay sharp),
+temporal accumulation of the lighting demodulated by albedo through the motion
 vectors, with disocclusion tests (shaders/svgf_temporal.frag), per-pixel variance from the
 temporal moments or, for a short history, from the neighbours (svgf_variance.frag), then
 `iterations` a-trous passes with edge-stopping on depth, normal and luminance
@@ -15,7 +16,7 @@ from app.raster.targets import Targets
 from core.options import opt, register_group
 from core.passes import Pass
 
-GBUFFER = ("g_position", "g_normal", "g_albedo", "g_face")
+GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 
 
 @dataclass
@@ -38,7 +39,7 @@ class SvgfPass(Pass):
 
     name = "svgf"
     options = SvgfOptions
-    reads = ("radiance", "g_position", "g_normal", "g_albedo", "g_face", "g_motion")
+    reads = ("radiance", "g_position", "g_normal", "g_albedo", "g_emissive", "g_face", "g_motion")
     writes = ("radiance",)
 
     def __init__(self, ctx):
