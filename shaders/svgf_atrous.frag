@@ -12,6 +12,7 @@ uniform sampler2D g_albedo;
 uniform sampler2D g_emissive;   // the first hit's emission, added back by the last iteration
 uniform sampler2D g_face;
 uniform sampler2D radiance;     // passed through where nothing is covered (the sky)
+uniform sampler2D guide;        // b: the luminance edges stop at (svgf_temporal.frag)
 uniform int step;
 uniform float phi_color;
 uniform float phi_normal;
@@ -31,7 +32,7 @@ void main() {
     }
     vec4 pos = texelFetch(g_position, px, 0);
     vec3 n = texelFetch(g_normal, px, 0).xyz;
-    float l = luma(c.rgb);
+    float l = texelFetch(guide, px, 0).b;
     float blurred = 0.0;  // the variance under a 3x3 Gaussian: a steadier luminance scale
     float wsum = 0.0;
     for (int y = -1; y <= 1; y++)
@@ -53,7 +54,7 @@ void main() {
             vec4 cq = texelFetch(color, q, 0);
             float h = H[abs(x)] * H[abs(y)];
             float wz = abs(dot(texelFetch(g_position, q, 0).xyz - pos.xyz, n)) / sigma_z;
-            float wl = abs(luma(cq.rgb) - l) / sigma_l;
+            float wl = abs(texelFetch(guide, q, 0).b - l) / sigma_l;
             float wn = pow(max(dot(texelFetch(g_normal, q, 0).xyz, n), 0.0), phi_normal);
             float w = h * exp(-wz - wl) * wn;
             sum += vec4(w * cq.rgb, w * w * cq.a);

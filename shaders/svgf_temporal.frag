@@ -61,9 +61,12 @@ void main() {
         float frames = min(hist.a + 1.0, 255.0);
         float a = max(1.0 / frames, alpha), am = max(1.0 / frames, moments_alpha);
         out_color = vec4(mix(hist.rgb, illum, a), frames);
-        out_moments = vec4(mix(moments, vec2(l, l * l), am), 0.0, 0.0);
+        // b: the luminance that the a-trous passes stop at: the history's, which this frame's
+        // noise has no part in (with the frame's own, binary noise was biased towards a
+        // pixel's likes: 1-ray AO -4 %)
+        out_moments = vec4(mix(moments, vec2(l, l * l), am), luma(hist.rgb), 0.0);
     } else {
         out_color = vec4(illum, 1.0);
-        out_moments = vec4(l, l * l, 0.0, 0.0);
+        out_moments = vec4(l, l * l, l, 0.0);
     }
 }

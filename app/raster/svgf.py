@@ -4,8 +4,9 @@ backend: the first hit's emission left out (added back at the end: light sources
 temporal accumulation of the lighting demodulated by albedo through the motion
 vectors, with disocclusion tests (shaders/svgf_temporal.frag), per-pixel variance from the
 temporal moments or, for a short history, from the neighbours (svgf_variance.frag), then
-`iterations` a-trous passes with edge-stopping on depth, normal and luminance
-(svgf_atrous.frag); the first one's output is the next frame's history, the last multiplies
+`iterations` a-trous passes with edge-stopping on depth, normal and luminance, the latter
+the reprojected history's (which this frame's noise has no part in: with the frame's own, the
+filter leaned towards each pixel's noise, 1-ray AO 3.8 % dark) (svgf_atrous.frag); the first one's output is the next frame's history, the last multiplies
 the albedo back."""
 from __future__ import annotations
 
@@ -84,7 +85,8 @@ class SvgfPass(Pass):
             for i in range(n):
                 last = i == n - 1
                 target = self.out if last else (self.ping if i % 2 == 0 else self.pong)
-                self._draw(target, prog, vao, frame, GBUFFER + ("radiance",), {"color": source},
+                self._draw(target, prog, vao, frame, GBUFFER + ("radiance",), {"color": source,
+                                                                             "guide": self.temporal["moments"]},
                            step=1 << i, phi_color=float(opts.phi_color), phi_normal=float(opts.phi_normal),
                            phi_depth=float(opts.phi_depth), remodulate=int(last))
                 source = target["c"]
