@@ -11,13 +11,14 @@ from scenes.builder import SceneBuilder, grid, trs
 from tests.test_rt import run
 
 
-def planes(h):
-    """A floor and a ceiling h apart, each 400 h wide (vertices 200 h from the axis), on black."""
+def planes(h, cells=8):
+    """A floor and a ceiling h apart, each 400 h wide (vertices 200 h from the axis) in cells x
+    cells squares of two triangles, on black."""
     b = SceneBuilder("planes")
     b.environment.kind = "black"
     b.material("grey", (0.5, 0.5, 0.5), roughness=1.0)
-    b.add(grid(8, 8), "grey", trs((0, 0, 0), 0, (400 * h, 1, 400 * h)))
-    b.add(grid(8, 8), "grey", trs((0, h, 0), 0, (400 * h, 1, 400 * h), rotate_x=np.pi))
+    b.add(grid(cells, cells), "grey", trs((0, 0, 0), 0, (400 * h, 1, 400 * h)))
+    b.add(grid(cells, cells), "grey", trs((0, h, 0), 0, (400 * h, 1, 400 * h), rotate_x=np.pi))
     return b.build()
 
 
@@ -31,6 +32,24 @@ def test_ao_between_planes_is_exact_at_any_scale(gl, h, sets):
     floor = np.abs(pos[..., 1]) < 1e-3 * h
     assert floor.sum() > 1000
     ao = run(gl, scene, "ao", frames=32, camera=cam, sets=sets + (f"ao.radius={radius}", "ao.rays_per_pixel=8"))
+    assert ao[floor][:, 0].mean() == pytest.approx((h / radius) ** 2, abs=0.003)
+
+
+@pytest.mark.parametrize("sets", [(), ("gbuffer=rt",)])
+def test_raster_gbuffer_points_lie_on_huge_triangles(gl, sets):
+    """Each plane two triangles 400 km wide, seen from 500 m up, 30 degrees down: the raster
+    G-buffer's depth is the pixel's ray meeting its triangle's plane (shaders/gbuffer.frag), so
+    the rebuilt points lie on it; interpolating the position over such triangles had left them
+    centimetres under it (AO 0.197 for 0.25)."""
+    h = 1000.0
+    scene, radius = planes(h, cells=1), 2.0 * h
+    cam = Camera(np.array([0.0, 0.5 * h, 0.0]), np.array([0.0, 0.5 * h - 0.5, -0.866]), np.array([0.0, 1.0, 0.0]),
+                 60)
+    cam.fit_clip(scene.diagonal)
+    pos = run(gl, scene, "position", camera=cam, sets=sets)
+    floor = np.abs(pos[..., 1]) < 1e-3 * h
+    assert floor.sum() > 1000
+    ao = run(gl, scene, "ao", frames=8, camera=cam, sets=sets + (f"ao.radius={radius}", "ao.rays_per_pixel=8"))
     assert ao[floor][:, 0].mean() == pytest.approx((h / radius) ** 2, abs=0.003)
 
 

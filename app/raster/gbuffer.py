@@ -37,11 +37,16 @@ class GBufferPass(Pass):
             frame.gpu.bind_materials(prog)
             set_uniform(prog, "view_proj", frame.view_proj().T.astype(np.float32))
             set_uniform(prog, "prev_view_proj", frame.view_proj(frame.prev_camera).T.astype(np.float32))
-            _, _, fwd = frame.camera.basis()
+            right, up, fwd = frame.camera.basis()
             set_uniform(prog, "eye", tuple(map(float, frame.camera.eye)))
-            set_uniform(prog, "cam_forward", tuple(map(float, fwd)))
+            for name, v in (("cam_right", right), ("cam_up", up), ("cam_forward", fwd)):
+                set_uniform(prog, name, tuple(map(float, v)))
+            set_uniform(prog, "tan_half", float(np.tan(np.radians(frame.camera.fov) / 2)))
             set_uniform(prog, "viewport", (float(frame.width), float(frame.height)))
             set_uniform(prog, "jitter_ndc", frame.jitter_ndc())
+            set_uniform(prog, "jitter_px", tuple(map(float, frame.jitter)))
+            frame.gpu.vbo_pos.bind_to_storage_buffer(6)  # the triangles' planes (gbuffer.frag: plane_depth)
+            frame.gpu.ibo.bind_to_storage_buffer(7)
             vao.render()
             self.ctx.disable(self.ctx.DEPTH_TEST)
         for name in CHANNELS:
