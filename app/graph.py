@@ -50,6 +50,21 @@ DENOISED_TAIL = (Node("svgf", SVGF), Node("reproject", REPROJECT), Node("accumul
                  Node("display"))
 
 
+def denoises(mode: str) -> bool:
+    """Whether option denoise applies to a mode: the ray-traced effects and the reference (not
+    forward, hybrid or the G-buffer views)."""
+    return mode in EFFECT_MODES
+
+
+def check_denoise(mode: str, options) -> None:
+    """A denoiser asked for where none runs: one line for the user (UserError)."""
+    from core.errors import UserError
+
+    if options.get("denoise") != "off" and not denoises(mode):
+        raise UserError(f"denoise={options.get('denoise')} applies to the ray-traced passes "
+                        f"({', '.join(EFFECT_MODES)}), not to --pass {mode}")
+
+
 def tail(mode: str) -> tuple[Node, ...]:
     if mode in EFFECT_MODES:
         return DENOISED_TAIL

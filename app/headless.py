@@ -11,6 +11,7 @@ import numpy as np
 from app.camera import Camera, parse_camera
 from app.compare import DIFF, REFERENCE_FRAMES, check_compare, compose, flip_map
 from app.gl_context import check_frame_size, create_headless_context
+from app.graph import check_denoise
 from app.image_io import check_output, write_npy, write_png
 from app.options import Options
 from app.passes import CHANNEL_VIEWS, RASTER, check_pass
@@ -39,6 +40,7 @@ def run_shot(args) -> int:
     check_pass(args.pass_name)
     options = Options()
     options.apply(args.set or [])
+    check_denoise(args.pass_name, options)
     width, height = parse_size(args.size)
     if not 1 <= args.frames <= MAX_FRAMES:
         raise UserError(f"--frames must be within 1..{MAX_FRAMES:,}, got {args.frames}")

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.compare import DIFF
-from app.graph import option_groups
+from app.graph import denoises, option_groups
 from app.passes import ALL
 from core.errors import UserError
 
@@ -229,10 +229,16 @@ class Panel:
             self.error = str(e)
 
     def _option(self, imgui, key: str) -> None:
+        idle = key == "denoise" and not denoises(self.v.pass_name)  # no denoiser runs for this pass
+        if idle:
+            imgui.begin_disabled()
         try:
             draw_option(imgui, self.v.options, key)
         except UserError as e:
             self.error = str(e)
+        finally:
+            if idle:
+                imgui.end_disabled()
 
     def draw_profiler(self, imgui) -> None:
         v = self.v

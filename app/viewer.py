@@ -22,6 +22,7 @@ from app.camera import Camera
 from app.compare import DIFF, check_compare
 from app.fly_camera import FlyCamera, FlyInput
 from app.gl_context import fullscreen, set_uniform, wrap_current_context
+from app.graph import check_denoise
 from app.headless import parse_size
 from app.image_io import write_npy, write_png
 from app.options import Options
@@ -56,6 +57,7 @@ class Viewer:
         self.options = Options()
         self.options.apply(args.set or [])
         self.pass_name = check_pass(args.pass_name)
+        check_denoise(self.pass_name, self.options)
         self.split = float(getattr(args, "split", 0.5))  # the divider, a fraction of the width
         check_compare(self.pass_name, getattr(args, "compare", None), self.split)
         # a bad bookmarks file or scene: one line before any window opens

@@ -149,6 +149,12 @@ def test_shot_and_bench_take_the_denoisers(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "app.cli", "shot", "arcade", "--set", "denoise=blur"],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "denoise" in bad.stderr and "Traceback" not in bad.stderr
+    for pass_name in ("forward", "albedo", "hybrid"):  # no denoiser runs there: refused, not ignored
+        idle = subprocess.run([sys.executable, "-m", "app.cli", "shot", "arcade", "--pass", pass_name, "--size",
+                               "16x9", "--set", "denoise=oidn", "--out", str(tmp_path / "idle.png")],
+                              capture_output=True, text=True, timeout=120)
+        assert idle.returncode == 2 and "applies to the ray-traced passes" in idle.stderr, idle.stderr
+        assert len(idle.stderr.strip().splitlines()) == 1 and not (tmp_path / "idle.png").exists()
     r = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--quick", "--scenes", "arcade", "--configs",
                         "gi_1+svgf,gi_1+oidn", "--out", str(tmp_path / "b")], capture_output=True, text=True,
                        timeout=600)
