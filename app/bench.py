@@ -339,8 +339,9 @@ def measure_denoisers(renderer, camera, size, scene_name, rows, configs, converg
     """Each denoised configuration's image (its DENOISE_FRAMES-th frame, the denoiser's own
     history built over the ones before) against the same pass converged over converged_frames
     accumulated frames (another seed), beside that pass's one raw frame and DENOISE_FRAMES
-    accumulated raw frames: mean FLIP of each, into the rows' "denoise"."""
-    from app.quality import mean_flip
+    accumulated raw frames: mean FLIP of each, and the bias of the mean brightness (the denoised
+    and the accumulated image's), into the rows' "denoise"."""
+    from app.quality import mean_bias, mean_flip
 
     by_config = {r["config"]: r for r in rows}
     for name in dict.fromkeys(c.partition("+")[0] for c in configs):
@@ -356,10 +357,12 @@ def measure_denoisers(renderer, camera, size, scene_name, rows, configs, converg
             by_config[config]["denoise"] = {
                 "frames": DENOISE_FRAMES, "converged_frames": converged_frames, "flip": mean_flip(converged, image),
                 "flip_raw_1": mean_flip(converged, raw[1]), f"flip_raw_{DENOISE_FRAMES}": mean_flip(converged,
-                                                                                                  raw[DENOISE_FRAMES])}
+                                                                                                  raw[DENOISE_FRAMES]),
+                "bias": mean_bias(converged, image), f"bias_raw_{DENOISE_FRAMES}": mean_bias(converged,
+                                                                                          raw[DENOISE_FRAMES])}
             d = by_config[config]["denoise"]
-            progress.update(1, f"{scene_name} {config}: FLIP {d['flip']:.4f} (raw: 1 frame "
-                               f"{d['flip_raw_1']:.4f}, {DENOISE_FRAMES} frames {d[f'flip_raw_{DENOISE_FRAMES}']:.4f})")
+            progress.update(1, f"{scene_name} {config}: FLIP {d['flip']:.4f}, bias {100 * d['bias']:+.1f} % (raw: 1 "
+                               f"frame {d['flip_raw_1']:.4f}, {DENOISE_FRAMES} frames {d[f'flip_raw_{DENOISE_FRAMES}']:.4f})")
 
 
 PATH_CONFIG = "gi_1"  # the configuration flown along the camera path, accumulated

@@ -25,6 +25,17 @@ def psnr(reference: np.ndarray, test: np.ndarray) -> float:
     return 99.0 if mse < 1e-10 else min(99.0, 10.0 * np.log10(1.0 / mse))  # capped: JSON has no inf
 
 
+def mean_bias(reference: np.ndarray, test: np.ndarray) -> float:
+    """The test image's mean brightness against the reference's, relative, in linear light (two
+    sRGB uint8 images; the sRGB curve undone): a filter's bias, apart from its noise."""
+    def linear(image):
+        c = image[..., :3].astype(np.float64) / 255.0
+        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).mean()
+
+    ref = linear(reference)
+    return float((linear(test) - ref) / ref) if ref > 0 else 0.0
+
+
 def mean_flip(reference: np.ndarray, test: np.ndarray) -> float:
     """Mean LDR FLIP of two sRGB uint8 images (0 = identical, 1 = maximal difference)."""
     import flip_evaluator as flip

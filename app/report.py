@@ -93,8 +93,10 @@ def denoise_rows(doc: dict) -> list[list[str]]:
             continue
         denoiser = r["config"].partition("+")[2]
         raw_n = d[f"flip_raw_{d['frames']}"]
+        bias = d.get("bias")  # absent in results made before it was measured
         rows.append([r["scene"], r["config"], f"{r['passes_ms'].get(denoiser, float('nan')):.1f}",
                      f"{d['flip_raw_1']:.4f}", f"{raw_n:.4f}", f"{d['flip']:.4f}",
+                     "–" if bias is None else f"{100 * bias:+.1f} %",
                      "yes" if d["flip"] <= raw_n else "no"])
     return rows
 
@@ -272,13 +274,14 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
         first = next(r["denoise"] for r in doc["results"] if r.get("denoise"))
         n = first["frames"]
         dh = ["scene", "config", "denoiser ms", "FLIP 1 raw frame", f"FLIP {n} raw frames",
-              f"FLIP denoised (frame {n})", f"denoised ≤ {n} raw"]
+              f"FLIP denoised (frame {n})", "bias denoised", f"denoised ≤ {n} raw"]
         size = "×".join(str(v) for v in s["quality_size"])
         md += ["## Denoisers", "", "Each pass's image against the same pass converged over "
                f"{first['converged_frames']} accumulated frames (mean FLIP, {size}): one raw frame, {n} "
                f"accumulated raw frames, and the {n}th frame of a still camera denoised without accumulation (SVGF's "
-               "history built over the frames before; OIDN filters each frame alone). The denoiser's time is its own "
-               f"pass at {s['size'][0]}×{s['size'][1]}.", ""] + _table(dh, drows) + [""]
+               "history built over the frames before; OIDN filters each frame alone). The bias is the denoised "
+               "image's mean brightness against the converged one's (linear light), apart from its noise. The "
+               f"denoiser's time is its own pass at {s['size'][0]}×{s['size'][1]}.", ""] + _table(dh, drows) + [""]
     prows = path_rows(doc)
     if prows:
         first = next(i["path"] for i in doc["scenes"].values() if i.get("path"))

@@ -166,4 +166,15 @@ def test_shot_and_bench_take_the_denoisers(tmp_path):
         assert row["passes_ms"][denoiser] > 0  # the denoiser's own time, as the profiler saw it
         d = row["denoise"]
         assert d["frames"] == 16 and 0 < d["flip"] < d["flip_raw_1"]
-    assert "## Denoisers" in (tmp_path / "b" / "report.md").read_text()
+        assert abs(d["bias"]) < 0.2 and abs(d["bias_raw_16"]) < 0.2  # a quick run: small images, few frames
+    report = (tmp_path / "b" / "report.md").read_text()
+    assert "## Denoisers" in report and "bias denoised" in report
+
+
+def test_bias_is_the_mean_brightness_in_linear_light():
+    from app.quality import mean_bias
+
+    grey = np.full((4, 4, 3), 128, np.uint8)
+    assert mean_bias(grey, grey) == 0.0
+    bright = np.full((4, 4, 3), 255, np.uint8)  # sRGB 128 is 0.216 linear: 1.0 is 4.63 times it
+    assert mean_bias(grey, bright) == pytest.approx(1.0 / 0.21586 - 1.0, rel=1e-3)
