@@ -10,6 +10,7 @@ import numpy as np
 
 from core.errors import UserError
 from scenes.builtin import is_builtin
+from scenes.cache import load_cached
 from scenes.model import Environment
 
 EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
@@ -58,13 +59,9 @@ def _load(spec: str):
     if not is_file:
         raise UserError(f"{spec[:200]}: not a file")
     if ext in (".gltf", ".glb"):
-        from scenes.loaders.gltf import load_gltf
-
-        return load_gltf(path)
-    if ext == ".obj":
-        from scenes.loaders.obj import load_obj
-
-        return load_obj(path)
-    from scenes.loaders.ply import load_ply
-
-    return load_ply(path)
+        from scenes.loaders.gltf import load_gltf as read
+    elif ext == ".obj":
+        from scenes.loaders.obj import load_obj as read
+    else:
+        from scenes.loaders.ply import load_ply as read
+    return load_cached(path, read)  # big files: read once, then from rtlab's cache

@@ -9,6 +9,7 @@ import stat
 from pathlib import Path
 
 from core.errors import UserError
+from scenes.cache import note_read
 
 F32_MAX = 3.4028234663852886e38
 INT32_MAX = 2**31 - 1
@@ -133,6 +134,7 @@ def open_regular(path: Path, what: str):
 
 def read_regular(path: Path, what: str, limit: int | None = None) -> bytes:
     """The bytes of a regular file (open_regular), refusing files over `limit` bytes."""
+    note_read(path)  # what a cached scene was made from (scenes/cache.py)
     with open_regular(path, what) as f:
         size = os.fstat(f.fileno()).st_size
         if limit is not None and size > limit:
