@@ -385,11 +385,14 @@ def footprint_mean(tex: np.ndarray, corner_uvs: np.ndarray, wrap=(0, 0)) -> np.n
 
 
 def auto_view(scene: Scene) -> View:
-    """A view that frames the whole scene from the front-top, for files without a camera."""
+    """A view that frames the whole scene from the front (+Z, glTF's front) and a little above
+    (20 degrees), as the glTF sample viewer frames an asset, for files without a camera: the
+    bounding sphere fits the height of the image."""
     lo, hi = scene.bounds()
     c = (lo + hi) * 0.5
     r = max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-3)
     fov = 45.0
-    dist = r / np.tan(np.radians(fov) * 0.5)
-    eye = c + np.array([0.45, 0.35, 0.82], np.float32) * dist
+    dist = r / np.sin(np.radians(fov) * 0.5)
+    up = np.radians(20.0)
+    eye = c + np.array([0.0, np.sin(up), np.cos(up)], np.float32) * dist
     return View("auto", tuple(map(float, eye)), tuple(map(float, c)), (0.0, 1.0, 0.0), fov)
