@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -203,8 +204,24 @@ def run_bench(args) -> int:
     work = len(loaded) * (len(timed_configs) + (len(quality_configs) + 4 if quality_configs else 0) + len(denoised)
                           + (1 if path_frames else 0))
     progress = Progress(work)
+    settings = {"size": list(size), "frames": frames, "seconds": None if frames else seconds, "warmup": warmup,
+                "quality_size": list(quality_size), "reference_frames": ref_frames,
+                "reference_noise": args.reference_noise,
+                "quality_frames": acc_frames, "quality": bool(quality_configs), "budget_ms": args.budget_ms,
+                "options": list(common)}
+    # resumable (rtlab study): each scene's rows are kept as soon as it is measured, and a run with the
+    # same settings and configurations takes them instead of measuring the scene again
+    resume = getattr(args, "resume", False)
+    kept_as = {"settings": settings, "configs": configs, "camera": args.camera, "machine": machine_info(ctx)}
     results, scene_info = [], {}
-    for _spec, scene in loaded:
+    for spec, scene in loaded:
+        part = out / "scenes" / f"{_file_name(spec)}.json"
+        found = _kept_scene(part, kept_as) if resume else None
+        if found is not None:
+            rows, scene_info[scene.name] = found["rows"], found["info"]
+            results += rows
+            progress.update(work / len(loaded), f"{scene.name}: measured before ({part}), kept")
+            continue
         camera = parse_camera(args.camera, scene) if args.camera else Camera.from_view(scene.default_view(),
                                                                                         scene.diagonal)
         options = Options()
@@ -238,14 +255,13 @@ def run_bench(args) -> int:
             progress.update(1, f"{scene.name} camera path")
         renderer.release()
         results += rows
+        if resume:
+            _keep_scene(part, {**kept_as, "rows": rows, "info": scene_info[scene.name]})
     from app.recommend import recommend
 
+    tracer = next(iter(scene_info.values()))["tracer"]
     doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"),
-           "settings": {"size": list(size), "frames": frames, "seconds": None if frames else seconds, "warmup": warmup,
-                        "quality_size": list(quality_size), "reference_frames": ref_frames,
-                        "reference_noise": args.reference_noise,
-                        "quality_frames": acc_frames, "quality": bool(quality_configs), "budget_ms": args.budget_ms,
-                        "options": list(common)},
+           "settings": settings,
            "tracer": tracer,
            "scenes": scene_info, "results": results,
            "recommendations": {s: recommend([r for r in results if r["scene"] == s], args.budget_ms)
@@ -256,6 +272,29 @@ def run_bench(args) -> int:
     write_report(out, doc, html=False)
     print(f"bench: {len(results)} runs over {len(scene_info)} scene(s) -> {out}/results.json, results.csv, report.md")
     return 0
+
+
+def _file_name(spec: str) -> str:
+    """A scene spec (built-in name, name:detail, or a path) as a file name."""
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(spec).name)[:100] or "scene"
+
+
+def _kept_scene(path: Path, kept_as: dict):
+    """A scene's rows kept by an earlier run with the same settings, or None."""
+    try:
+        found = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    same = all(found.get(k) == json.loads(json.dumps(v)) for k, v in kept_as.items())
+    return found if same and isinstance(found.get("rows"), list) and isinstance(found.get("info"), dict) else None
+
+
+def _keep_scene(path: Path, record: dict) -> None:
+    """Written whole (a temporary file renamed): an interrupted run leaves the last scene out."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(record))
+    os.replace(tmp, path)
 
 
 def converge_reference(renderer, camera, size, max_frames: int, target: float, base: tuple = ()):

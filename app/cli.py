@@ -82,6 +82,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--perf-rounds", type=int, help="sweeps through the thread counts for --perf's scaling, "
                    "keeping each count's fastest frame (default 2; more on a noisy shared host)")
 
+    s = sub.add_parser("study", help="the whole study on the best backend here: every configuration at 1920x1080, "
+                       "converged references, report; resumable")
+    from app.study import add_arguments
+
+    add_arguments(s)
+
     s = sub.add_parser("warmup", help="compile every ray-tracing kernel ahead of use (once per version)")
     s.add_argument("--jobs", type=int, metavar="N", help="processes compiling side by side (default: one per "
                    "core, at most 4)")
@@ -181,6 +187,12 @@ def cmd_bench(args) -> int:
     return run_bench(args)
 
 
+def cmd_study(args) -> int:
+    from app.study import run_study
+
+    return run_study(args)
+
+
 def cmd_report(args) -> int:
     from app.report import run_report
 
@@ -237,7 +249,7 @@ def _run(parser, argv: list) -> int:
         from app.headless import run_shot
 
         return run_shot(args)
-    return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "report": cmd_report,
+    return {"scenes": cmd_scenes, "view": cmd_view, "bench": cmd_bench, "study": cmd_study, "report": cmd_report,
             "devices": cmd_devices, "warmup": cmd_warmup}[args.command](args)
 
 

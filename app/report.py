@@ -201,7 +201,8 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         ax.set_xlabel("rays per pixel per frame")
         ax.set_ylabel("mean FLIP of one frame (noise)")
         ax.set_title(f"rays per pixel vs error\n{label}", fontsize=9)
-        ax.legend(fontsize=7, **OUTSIDE)
+        if ax.get_legend_handles_labels()[0]:  # none where gi_4 / ao_4 were not measured
+            ax.legend(fontsize=7, **OUTSIDE)
         fig.tight_layout()
         plots.append(("rays per pixel vs error", _save(fig, folder / "plot_rays_error.png")))
         plt.close(fig)
