@@ -154,6 +154,7 @@ def cmd_devices(args) -> int:
         for r in rows:  # how the hybrid frame's G-buffer and images move between GL and the device
             if r["available"] and r["name"] != "embree":
                 r["gl_sharing"] = describe(ctx, r["name"])
+                r["interop"] = r["gl_sharing"].startswith("shared memory")  # zero-copy with OpenGL
         ctx.release()
     auto = resolve("auto")
     if args.json:
@@ -166,7 +167,8 @@ def cmd_devices(args) -> int:
         state = f"available, {kind}" if r["available"] else "not available"
         print(f"  {r['name']:<7} {state:<15} {r['device']}")
         if "gl_sharing" in r:
-            print(f"  {'':<7} {'':<15} OpenGL <-> {r['name']}: {r['gl_sharing']}")
+            print(f"  {'':<7} {'':<15} interop: {'yes' if r['interop'] else 'no'} (OpenGL <-> {r['name']}: "
+                  f"{r['gl_sharing']})")
     print(f"tracer=auto picks: {auto}" + ("" if auto != "embree" else " (no GPU with ray tracing here)"))
     return 0
 

@@ -150,3 +150,19 @@ def test_warmup_fills_the_slang_caches(tmp_path):
     assert "the vulkan device's shaders compiled and cached" in done.stdout
     caches = tmp_path / "rtlab" / "slang" / "vulkan"
     assert any((caches / "modules").iterdir()) and any(p.is_file() for p in (caches / "shaders").rglob("*"))
+
+
+def test_devices_say_whether_gl_interop_is_there():
+    """rtlab devices: "interop: yes/no" for each GPU backend (DESIGN's contract); llvmpipe and
+    lavapipe share memory here."""
+    import json
+    import subprocess
+    import sys
+
+    text = subprocess.run([sys.executable, "-m", "app.cli", "devices"], capture_output=True, text=True, timeout=300)
+    assert text.returncode == 0, text.stderr[-2000:]
+    assert "interop: yes (OpenGL <-> vulkan: shared memory" in text.stdout
+    doc = subprocess.run([sys.executable, "-m", "app.cli", "devices", "--json"], capture_output=True, text=True,
+                         timeout=300)
+    rows = {r["name"]: r for r in json.loads(doc.stdout)["backends"]}
+    assert rows["vulkan"]["interop"] is True and "interop" not in rows["embree"]
