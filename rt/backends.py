@@ -30,20 +30,30 @@ def return_freed_memory() -> None:
 COMPILED_KEYS = ("shadows", "reflections", "gi", "ao", "hybrid", "reference", "gbuffer=rt")
 
 
+SHADERS = "shaders:"  # a key of a Slang device's shaders: "shaders:vulkan"
+
+
 def compile_keys(tracer: str, pass_name: str, gbuffer: str = "raster") -> list[str]:
-    """What a first frame of pass_name would compile on this tracer (resolved), by key."""
+    """What a first frame of pass_name would compile on this tracer (resolved), by key: the Embree
+    kernels it needs, or on a Slang device its shaders where that device's cache is still empty
+    (a GPU compiles them in seconds, lavapipe in up to a minute a pipeline)."""
     if tracer != "embree":
-        return []  # the GPU backends compile their shaders in seconds, said nowhere
+        from rt.slang.device import shaders_cached
+
+        traced = pass_name in COMPILED_KEYS or gbuffer == "rt"
+        return [SHADERS + tracer] if traced and pass_name != "forward" and not shaders_cached(tracer) else []
     keys = [pass_name] if pass_name in COMPILED_KEYS else []
     return keys + (["gbuffer=rt"] if gbuffer == "rt" and pass_name != "forward" else [])
 
 
 def compile_notices(keys: list[str]) -> list[str]:
     """For keys whose kernels this version has not compiled yet: what the wait is, and how long it
-    took here last time (rt/embree/compile_log.py)."""
+    took here last time (rt/embree/compile_log.py); for a Slang device's, that it compiles them once."""
     from rt.embree import compile_log
 
-    return compile_log.notices(keys)
+    lines = [f"compiling the {k[len(SHADERS):]} device's shaders (the first time here; slangpy keeps them in "
+             f"~/.cache/rtlab/slang/; software Vulkan takes up to a minute a pass)" for k in keys if k.startswith(SHADERS)]
+    return lines + compile_log.notices([k for k in keys if not k.startswith(SHADERS)])
 
 
 def kernels_ready() -> bool:

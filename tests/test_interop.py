@@ -166,3 +166,22 @@ def test_devices_say_whether_gl_interop_is_there():
                          timeout=300)
     rows = {r["name"]: r for r in json.loads(doc.stdout)["backends"]}
     assert rows["vulkan"]["interop"] is True and "interop" not in rows["embree"]
+
+
+def test_a_first_gpu_frame_says_it_compiles_shaders(tmp_path):
+    """rtlab shot on a Slang device whose shader cache is empty says what the wait is; once the
+    cache holds them, nothing is said."""
+    import subprocess
+    import sys
+
+    home_cache = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path),
+           "MESA_SHADER_CACHE_DIR": os.environ.get("MESA_SHADER_CACHE_DIR", home_cache)}
+    said = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-m", "app.cli", "shot", "arcade", "--pass", "ao", "--size", "16x9",
+                               "--set", "tracer=vulkan", "--out", str(tmp_path / "ao.png")], env=env,
+                              capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        said.append("compiling the vulkan device's shaders" in done.stderr)
+    assert said == [True, False]

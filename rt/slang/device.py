@@ -66,6 +66,16 @@ def _cache_dir(kind: str) -> Path:
     return base / "rtlab" / "slang" / kind
 
 
+def shaders_cached(kind: str) -> bool:
+    """Whether slangpy's shader cache for this device kind holds anything yet (a first frame
+    compiles the shaders it lacks)."""
+    folder = _cache_dir(kind) / "shaders"
+    try:
+        return any(folder.iterdir())
+    except OSError:
+        return False
+
+
 def open_device(kind: str):
     """The process's slangpy device of this kind, opened on first use; UserError if there is none."""
     if kind not in KINDS:
