@@ -45,5 +45,13 @@ class GlobalOptions:
 
 register_group("", GlobalOptions)
 
+
+@dataclass
+class EnvOptions:
+    intensity: float = opt(1.0, "scale of the environment's radiance (option env), in every pass", 0.0, 1000.0)
+
+
+register_group("env", EnvOptions)
+
 import app.passes  # noqa: E402, F401  (registers every pass's options after the global ones)
 from core.options import Options  # noqa: E402, F401

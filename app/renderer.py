@@ -2,6 +2,8 @@
 scene -> G-buffer -> pass -> accumulation -> display. Dirty frames reset accumulation."""
 from __future__ import annotations
 
+import dataclasses
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -183,8 +185,14 @@ class Renderer:
         self.interop, self._interop_checked = None, None
 
     def environment(self) -> Environment:
+        """The radiance of missed rays: the scene's or option env's, scaled by env.intensity."""
         env = self.options.get("env")
-        return self.scene.environment if env == "scene" else Environment.parse(env)
+        found = self.scene.environment if env == "scene" else Environment.parse(env)
+        scale = float(self.options.get("env.intensity"))
+        if scale == 1.0:
+            return found
+        return dataclasses.replace(found, color=tuple(float(c) * scale for c in found.color) if found.kind == "constant"
+                                   else found.color, strength=found.strength * scale)
 
     @property
     def frame_count(self) -> int:

@@ -58,8 +58,9 @@ def draw_option(imgui, options, key: str) -> bool:
 
 
 def frame_wide_keys(options) -> list[str]:
-    """The options of every mode (the frame-wide group, app/options.py: GlobalOptions), in its order."""
-    return [k for k in options.keys() if "." not in k]
+    """The options of every mode (the frame-wide group, app/options.py: GlobalOptions, in its order,
+    and the environment's)."""
+    return [k for k in options.keys() if "." not in k or k.startswith("env.")]
 
 
 def option_keys_for(options, pass_name: str) -> list[str]:

@@ -65,3 +65,17 @@ def test_studio_background_is_the_same_in_every_pass(gl, tmp_path, tracer):
     np.testing.assert_allclose(traced, forward, rtol=2e-3, atol=2e-3)
     np.testing.assert_allclose(traced[5:7, 7:9], np.broadcast_to(STUDIO_ZENITH, (2, 2, 3)), rtol=0.02)
     assert np.abs(sky - traced).max() > 0.1  # the studio, not the sky
+
+
+@pytest.mark.parametrize("env", ["studio", "0.1,0.2,0.3"])
+@pytest.mark.parametrize("tracer", ["embree", "vulkan"])
+def test_env_intensity_scales_the_environment_in_every_pass(gl, tmp_path, env, tracer):
+    scene = load_scene(_sphere_file(tmp_path))
+    cam = Camera(np.array([0.0, 5.0, 0.0]), np.array([0.0, 10.0, 0.0]), np.array([0.0, 0.0, 1.0]), 60)
+    cam.fit_clip(scene.diagonal)
+    for pass_name in ("forward", "ao"):
+        one, two = (run(gl, scene, pass_name, size=(16, 12), camera=cam,
+                        sets=("jitter=false", f"tracer={tracer}", f"env={env}", f"env.intensity={k}"))[..., :3]
+                    for k in (1, 2))
+        assert one.min() > 0.05, pass_name
+        np.testing.assert_allclose(two, 2.0 * one, rtol=2e-3, err_msg=pass_name)
