@@ -66,8 +66,10 @@ def breakdown_rows(doc: dict) -> list[list[str]]:
         if r["accumulate"]:
             continue
         parts = ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["passes_ms"].items(), key=lambda kv: -kv[1]))
+        timed = r.get("gpu_ms", 0.0) > 0  # GL's timer queries and a GPU backend's timestamps
         rows.append([r["scene"], r["config"], f"{r['frame_ms']['mean']:.1f}", f"{r['frame_ms']['median']:.1f}",
                      f"{r['frame_ms']['p5']:.1f}–{r['frame_ms']['p95']:.1f}", f"{r['mrays_per_s']:.2f}",
+                     f"{r['gpu_ms']:.2f}" if timed else "–", f"{r['host_overhead_ms']:.2f}" if timed else "–",
                      f"{r['transfer_ms']:.1f}", parts])
     return rows
 
@@ -260,7 +262,8 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     for title, header, rows in technique_tables(doc):
         sections.append((title, header, rows))
         md += [f"## {title}", ""] + _table(header, rows) + [""]
-    bh = ["scene", "config", "mean ms", "median ms", "p5–p95 ms", "Mrays/s", "transfers ms", "per pass (ms)"]
+    bh = ["scene", "config", "mean ms", "median ms", "p5–p95 ms", "Mrays/s", "GPU ms", "host beyond GPU ms",
+          "transfers ms", "per pass (ms)"]
     md += ["## Per-pass time breakdown", ""] + _table(bh, breakdown_rows(doc)) + [""]
     qrows = quality_rows(doc)
     qh = ["scene", "config", "FLIP 1 frame", "FLIP accumulated", "PSNR 1 frame", "PSNR accumulated",

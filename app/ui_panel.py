@@ -270,6 +270,9 @@ class Panel:
                     imgui.table_set_column_index(col)
                     imgui.text(text)
             imgui.end_table()
+        gpu = sum(ms for name, ms in prof.finished.items() if prof.kind.get(name) == "gpu")
+        if gpu > 0:  # timer queries and a GPU backend's timestamps; the rest of a frame is the host's
+            imgui.text(f"GPU work: {gpu:.2f} ms of the last frame")
         rays = prof.finished_counters.get("rays", 0)
         if rays:
             ms = sum(prof.finished.values())  # every pass of the last finished frame
