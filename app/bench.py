@@ -212,7 +212,8 @@ def run_bench(args) -> int:
     # resumable (rtlab study): each scene's rows are kept as soon as it is measured, and a run with the
     # same settings and configurations takes them instead of measuring the scene again
     resume = getattr(args, "resume", False)
-    kept_as = {"settings": settings, "configs": configs, "camera": args.camera, "machine": machine_info(ctx)}
+    machine = machine_info(ctx)
+    kept_as = {"settings": settings, "configs": configs, "camera": args.camera, "machine": machine}
     results, scene_info = [], {}
     for spec, scene in loaded:
         part = out / "scenes" / f"{_file_name(spec)}.json"
@@ -260,7 +261,7 @@ def run_bench(args) -> int:
     from app.recommend import recommend
 
     tracer = next(iter(scene_info.values()))["tracer"]
-    doc = {"machine": machine_info(ctx), "created": time.strftime("%Y-%m-%d %H:%M:%S"),
+    doc = {"machine": machine, "created": time.strftime("%Y-%m-%d %H:%M:%S"),
            "settings": settings,
            "tracer": tracer,
            "scenes": scene_info, "results": results,

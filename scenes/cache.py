@@ -7,11 +7,14 @@ reader's warnings are kept with the scene and said again. RTLAB_SCENE_CACHE=0 tu
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import os
 import pickle
 import warnings
 from pathlib import Path
+
+from core.cache import cache_root
 
 MIN_BYTES = 8 << 20  # smaller files read in well under a second: not cached
 MAX_ENTRIES = 8  # the least recently used beyond these are removed
@@ -37,10 +40,10 @@ def record_reads():
 
 
 def cache_dir() -> Path:
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "rtlab" / "scenes"
+    return cache_root() / "scenes"
 
 
+@functools.lru_cache(maxsize=1)
 def _sources_digest() -> bytes:
     """The readers' and the scene model's source: another version reads files anew."""
     h = hashlib.blake2b(digest_size=16)

@@ -133,17 +133,21 @@ def test_resizes_and_switches_leak_no_shared_memory(gl, arcade):
     r.release()
 
 
+def _fresh_rtlab_caches(folder) -> dict:
+    """A child process's environment with rtlab's caches in folder; Mesa's own pipeline cache
+    stays where it was (cold, lavapipe compiles a ray-tracing pipeline for minutes)."""
+    home_cache = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+    return {**os.environ, "XDG_CACHE_HOME": str(folder),
+            "MESA_SHADER_CACHE_DIR": os.environ.get("MESA_SHADER_CACHE_DIR", home_cache)}
+
+
 def test_warmup_fills_the_slang_caches(tmp_path):
     """rtlab warmup's GPU step (here forced onto lavapipe, which it leaves out by default, and one
     pass) leaves slangpy's module and shader caches under the cache folder."""
     import subprocess
     import sys
 
-    # a fresh cache folder for rtlab's caches; Mesa's own pipeline cache stays where it was (cold,
-    # lavapipe compiles a ray-tracing pipeline for minutes)
-    home_cache = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
-    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path),
-           "MESA_SHADER_CACHE_DIR": os.environ.get("MESA_SHADER_CACHE_DIR", home_cache)}
+    env = _fresh_rtlab_caches(tmp_path)
     code = "import app.warmup as w; w.GPU_MODES = ('ao',); raise SystemExit(w.warm_gpu_shaders(('vulkan',)))"
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -174,9 +178,7 @@ def test_a_first_gpu_frame_says_it_compiles_shaders(tmp_path):
     import subprocess
     import sys
 
-    home_cache = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
-    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path),
-           "MESA_SHADER_CACHE_DIR": os.environ.get("MESA_SHADER_CACHE_DIR", home_cache)}
+    env = _fresh_rtlab_caches(tmp_path)
     said = []
     for _ in range(2):
         done = subprocess.run([sys.executable, "-m", "app.cli", "shot", "arcade", "--pass", "ao", "--size", "16x9",

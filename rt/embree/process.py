@@ -18,6 +18,8 @@ import os
 import pathlib
 import sys
 
+from core.cache import cache_root
+
 _done = False
 
 
@@ -36,8 +38,7 @@ def cache_dir(folder: pathlib.Path = pathlib.Path(__file__).parent) -> pathlib.P
     for f in sources(folder):
         if f.exists():
             digest.update(f.name.encode() + b"\0" + f.read_bytes())
-    base = pathlib.Path(os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache")
-    return base / "rtlab" / "numba" / digest.hexdigest()[:16]
+    return cache_root() / "numba" / digest.hexdigest()[:16]
 
 
 def init() -> None:

@@ -7,6 +7,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from core.cache import cache_root
 from core.errors import UserError
 
 SHADER_DIR = Path(__file__).resolve().parent.parent.parent / "shaders" / "rt"
@@ -62,8 +63,7 @@ def _quiet():
 
 def _cache_dir(kind: str) -> Path:
     """slangpy's module and shader caches for a device kind, beside the Embree kernels' cache."""
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "rtlab" / "slang" / kind
+    return cache_root() / "slang" / kind
 
 
 def shaders_cached(kind: str) -> bool:
