@@ -123,7 +123,7 @@ class LightSet:
 
     @property
     def kernel_args(self) -> tuple:
-        """What the Embree backend's raygen.direct_block needs of the lights."""
+        """What the Embree backend's raygen.direct_all and direct_one need of the lights."""
         return self.analytic, self.emitters, self.guide, self.count
 
     @property

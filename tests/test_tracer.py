@@ -65,28 +65,31 @@ def test_direct_embree_calls_match_embreex():
 
 @pytest.mark.parametrize("workers", [1, 3])
 def test_parallel_kernels_trace_as_the_serial_ones(workers):
-    """The parallel replay kernels (bench --perf's raw time) give the serial kernels' results."""
+    """The replay kernels (bench --perf's raw time), a worker on each of the tracer's threads,
+    give the serial kernels' results."""
     from rt.embree import rtcore as embree
+    from rt.embree.raygen import FRAME_BLOCK
+    from rt.embree.tracer import EmbreeTracer
 
     positions = np.random.default_rng(2).uniform(-1, 1, (3000, 3)).astype(np.float32)
     indices = np.arange(3000, dtype=np.int32).reshape(-1, 3)
-    scene = embree.EmbreeScene(positions, indices)
+    tracer = EmbreeTracer(positions, indices, threads=workers)
     rng = np.random.default_rng(3)
-    n = 3 * embree.BLOCK + 77  # blocks for every worker, and a short last one
+    n = 5 * FRAME_BLOCK[0] + 77  # blocks for every worker, and a short last one
     o = rng.uniform(-1.5, 1.5, (n, 3)).astype(np.float32)
     d = rng.normal(size=(n, 3)).astype(np.float32)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     tmax = rng.uniform(0.1, 3.0, n).astype(np.float32)
     a, b = np.empty(n, bool), np.empty(n, bool)
-    embree.occluded(scene.handle, o, d, tmax, a)
-    embree.occluded_parallel(workers, scene.handle, o, d, tmax, b)
+    embree.occluded(tracer.handle, o, d, tmax, a)
+    tracer.run_parallel(embree.occluded_blocks, n, tracer.handle, o, d, tmax, b)
     assert np.array_equal(a, b) and 0.05 < a.mean() < 0.95
     first = [np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.float32), np.empty(n, np.float32)]
     second = [np.empty_like(x) for x in first]
-    embree.intersect(scene.handle, o, d, tmax, *first)
-    embree.intersect_parallel(workers, scene.handle, o, d, tmax, *second)
+    embree.intersect(tracer.handle, o, d, tmax, *first)
+    tracer.run_parallel(embree.intersect_blocks, n, tracer.handle, o, d, tmax, *second)
     assert all(np.array_equal(x, y) for x, y in zip(first, second, strict=True)) and (first[1] >= 0).any()
-    scene.close()
+    tracer.close()
 
 
 def test_kernel_cache_follows_every_source(tmp_path):
@@ -143,7 +146,8 @@ def test_freed_scratch_is_reused_without_page_faults():
 @pytest.mark.parametrize("n,workers", [(0, 2), (1, 2), (5000, 2), (40000, 1), (921600, 1), (580000, 2), (921600, 2),
                                        (921600, 16)])
 def test_frame_blocks_cover_every_point_once_and_shrink_at_the_end(n, workers):
-    from rt.embree.raygen import FRAME_BLOCK, block_bounds, block_size, next_block
+    from rt.embree.kernels import next_block
+    from rt.embree.raygen import FRAME_BLOCK, block_bounds, block_size
 
     bounds = block_bounds(n, workers)
     assert bounds[0] == 0 and bounds[-1] == n

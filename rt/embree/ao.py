@@ -3,38 +3,36 @@ that escape (1 = fully open)."""
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from rt.embree import gather, raygen
 from rt.embree.jit import njit
+from rt.embree.kernels import next_block
 
 
-@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def ao_frame(workers, scene, frame, base, rays, radius, grey):
+@njit(cache=True, error_model="numpy", nogil=True)
+def ao_frame(counter, bounds, scene, frame, base, rays, radius, grey):
     """The whole AO pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs; base:
-    RtFrame.key_base). Blocks of points split among workers, each block: for each of `rays`
-    rays per point, a cosine-weighted ray of length `radius`, traced, counted if it escapes;
-    then AO into the block's pixels, and the uncovered ones around them. Returns the rays
-    traced."""
+    RtFrame.key_base). One worker of the pass (Tracer.run_parallel runs one per thread), taking
+    blocks of points (next_block on counter, bounds) until none is left; each block: for each of
+    `rays` rays per point, a cosine-weighted ray of length `radius`, traced, counted if it
+    escapes; then AO into the block's pixels, and the uncovered ones around them. Returns the
+    rays it traced."""
     pix = frame.pix
     n = pix.shape[0]
-    bounds = raygen.block_bounds(n, workers)
-    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
-    traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
-    for w in prange(workers):  # each takes blocks until none is left
-        while True:
-            b0, b1 = raygen.next_block(counter, bounds)
-            if b0 >= n:
-                break
-            keys = raygen.block_keys(pix, b0, b1, base)
-            escaped = np.zeros(b1 - b0, np.float32)
-            o, d, t, _, idx = raygen.no_rays()  # traced as they are made: none written out
-            for r in range(rays):  # sample, trace, count: two random numbers per ray
-                traced[w] += raygen.hemisphere_live(frame.points, b0, keys, 2 * r, radius, o, d, t, idx,
-                                                    frame.target, escaped.reshape((b1 - b0, 1)))
-            gather.write_ao(frame.out, frame.aux, pix[b0:b1], escaped, rays, frame.albedo[b0:b1], grey)
-            gather.fill_uncovered(frame.out, frame.aux, np.float32(1.0), pix, b0, b1, frame.view_dir, frame.env)
-    return traced.sum()
+    traced = 0
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= n:
+            break
+        keys = raygen.block_keys(pix, b0, b1, base)
+        escaped = np.zeros(b1 - b0, np.float32)
+        o, d, t, _, idx = raygen.no_rays()  # traced as they are made: none written out
+        for r in range(rays):  # sample, trace, count: two random numbers per ray
+            traced += raygen.hemisphere_live(frame.points, b0, keys, 2 * r, radius, o, d, t, idx,
+                                             frame.target, escaped.reshape((b1 - b0, 1)))
+        gather.write_ao(frame.out, frame.aux, pix[b0:b1], escaped, rays, frame.albedo[b0:b1], grey)
+        gather.fill_uncovered(frame.out, frame.aux, np.float32(1.0), pix, b0, b1, frame.view_dir, frame.env)
+    return traced
 
 
 def trace(rf) -> dict:
@@ -42,6 +40,6 @@ def trace(rf) -> dict:
     fraction of rays that escape) when asked."""
     out, ao_image = rf.frame_outputs(1, fill=1.0, name="rt_ao")
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        ao_frame, rf.data.kernel_scene, rf.kernel_frame(out, ao_image), rf.key_base(2),
+        ao_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, ao_image), rf.key_base(2),
         rf.options.get("ao.rays_per_pixel"), np.float32(rf.options.get("ao.radius")), rf.options.get("ao.greyscale"))
     return rf.outputs(out, rt_ao=ao_image)

@@ -7,52 +7,49 @@ lights), so a bounce ray that happens to hit an emitter does not add its emissio
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
-from rt.embree.kernels import shade_hits
+from rt.embree.kernels import next_block, shade_hits
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 
 
-@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def gi_frame(workers, scene, frame, base, rays, bounces, shadowed, ggx):
+@njit(cache=True, error_model="numpy", nogil=True)
+def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
     """The whole GI pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs; base:
-    RtFrame.key_base). Blocks of points split among workers, each block: direct light from one
-    chosen light (shadowed, or unshadowed: the study's cheap mode), then `rays` paths of up to
-    `bounces` bounces (_paths); then the block's pixels, its incoming indirect light into
-    frame.aux, and the uncovered pixels around them; ggx: glTF's BRDF (brdf.py). Returns the rays
-    traced."""
+    RtFrame.key_base). One worker of the pass (Tracer.run_parallel runs one per thread), taking
+    blocks of points (next_block on counter, bounds) until none is left; each block: direct
+    light from one chosen light (shadowed, or unshadowed: the study's cheap mode), then `rays`
+    paths of up to `bounces` bounces (_paths); then the block's pixels, its incoming indirect
+    light into frame.aux, and the uncovered pixels around them; ggx: glTF's BRDF (brdf.py).
+    Returns the rays it traced."""
     pix = frame.pix
     n = pix.shape[0]
-    bounds = raygen.block_bounds(n, workers)
-    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
-    traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
-    for w in prange(workers):  # each takes blocks until none is left
-        lit = frame.target if shadowed else embree.no_trace(frame.target)  # no_trace: shadow rays not traced
-        while True:
-            b0, b1 = raygen.next_block(counter, bounds)
-            if b0 >= n:
-                break
-            nb = b1 - b0
-            keys = raygen.block_keys(pix, b0, b1, base)
-            # dimensions 0-3: the light picked and its sample
-            direct = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-            traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.far,
-                                             lit, direct)
-            indirect = np.zeros((nb, 3), np.float32)
-            for r in range(rays):
-                traced[w] += _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect)
-            indirect /= np.float32(rays)
-            gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1],
-                             frame.metallic[b0:b1], direct, indirect, False)
-            gather.put_rows(frame.aux, pix[b0:b1], indirect)
-            gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
-    return traced.sum()
+    traced = 0
+    lit = frame.target if shadowed else embree.no_trace(frame.target)  # no_trace: shadow rays not traced
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= n:
+            break
+        nb = b1 - b0
+        keys = raygen.block_keys(pix, b0, b1, base)
+        # dimensions 0-3: the light picked and its sample
+        direct = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
+        traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
+                                    lit, direct)
+        indirect = np.zeros((nb, 3), np.float32)
+        for r in range(rays):
+            traced += _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect)
+        indirect /= np.float32(rays)
+        gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1],
+                         frame.metallic[b0:b1], direct, indirect, False)
+        gather.put_rows(frame.aux, pix[b0:b1], indirect)
+        gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
+    return traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -104,8 +101,8 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
         hit_points = np.empty((9, k), np.float32)
         raygen.surface_soa(P[:k], N[:k], NG[:k], hit_points)
         hit_direct = brdf.accumulator(ggx, d, hits, rough[:k])
-        traced += m + raygen.direct_block(hit_points, 0, keys_b[:k], scene.lights, True, dim + 2, scene.far,
-                                          lit, hit_direct)
+        traced += m + raygen.direct_one(hit_points, 0, keys_b[:k], scene.lights, dim + 2, scene.far,
+                                        lit, hit_direct)
         gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct, None)
         if bounces == 1:
             break
@@ -130,6 +127,6 @@ def trace(rf) -> dict:
     incoming indirect radiance, albedo x which is the outgoing) when asked."""
     out, indirect_image = rf.frame_outputs(name="rt_indirect")
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        gi_frame, rf.data.kernel_scene, rf.kernel_frame(out, indirect_image), rf.key_base(4),
+        gi_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, indirect_image), rf.key_base(4),
         rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"), rf.options.get("gi.shadows"), rf.ggx)
     return rf.outputs(out, rt_indirect=indirect_image)

@@ -2,10 +2,11 @@
 compiles for its arguments' plain types, never for the constants a caller happens to pass.
 
 numba compiles a callee once per distinct argument types, and a constant argument (a literal
-0, 4 or True) is a type of its own: `direct_block(..., True, 0, ...)` and `direct_block(...,
-one, dim0, ...)` were two compilations of the same code, four for one_light_shadow_rays (13 s
+0, 4 or True) is a type of its own: `direct_one(..., 0, ...)` and `direct_one(..., dim0, ...)`
+would be two compilations of the same code (one_light_shadow_rays was compiled four times, 13 s
 each on a 2-core machine). Here every caller shares one compilation per plain signature;
-branches on such an argument are taken at run time (one comparison)."""
+branches on such an argument are taken at run time (one comparison), so code that an option
+leaves out is still compiled: such options choose another kernel instead (rt/embree/shadows.py)."""
 from __future__ import annotations
 
 import numba

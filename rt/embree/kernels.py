@@ -112,6 +112,21 @@ def take_next(counter):
     return take_many(counter, np.int64(1))
 
 
+@njit(cache=True, error_model="numpy")
+def next_block(counter, bounds):
+    """The next block of points (b0, b1) for a whole-frame kernel's worker (bounds:
+    raygen.block_bounds); b0 >= n when all are taken. Workers take blocks in order as each becomes free
+    (counter: a shared int64 array of one, zeroed), so a worker that drew cheap sky takes more
+    and all finish together; the blocks being traced at one time are neighbours, which share the
+    BVH's nodes in the cache. (Blocks dealt out in advance, every workers-th to each, left
+    threads idle at the end of a frame whenever their share happened to cost more.)"""
+    i = take_next(counter)
+    last = bounds.shape[0] - 1
+    if i >= last:
+        return bounds[last], bounds[last]
+    return bounds[i], bounds[i + 1]
+
+
 AHEAD = 8  # hits whose mesh rows shade_hits asks for ahead of the one it shades (incoherent hits
 # miss the cache on their mesh rows; 4 and 16 ahead gained less: report/HISTORY.md)
 

@@ -31,7 +31,7 @@ import numpy as np
 from rt.embree import rtcore as embree
 from rt.embree.brdf import SUM_EDVW, add_light
 from rt.embree.jit import njit
-from rt.embree.kernels import bits_float, float_bits, pixel_key, take_next, uniform
+from rt.embree.kernels import bits_float, float_bits, pixel_key, uniform
 from rt.layout import (
     AREA_PDF,
     CONE_COS,
@@ -732,21 +732,6 @@ def block_bounds(n, workers):
 
 
 @njit(cache=True, error_model="numpy")
-def next_block(counter, bounds):
-    """The next block of points (b0, b1) for a whole-frame kernel's worker (bounds:
-    block_bounds); b0 >= n when all are taken. Workers take blocks in order as each becomes free
-    (counter: a shared int64 array of one, zeroed), so a worker that drew cheap sky takes more
-    and all finish together; the blocks being traced at one time are neighbours, which share the
-    BVH's nodes in the cache. (Blocks dealt out in advance, every workers-th to each, left
-    threads idle at the end of a frame whenever their share happened to cost more.)"""
-    i = take_next(counter)
-    last = bounds.shape[0] - 1
-    if i >= last:
-        return bounds[last], bounds[last]
-    return bounds[i], bounds[i + 1]
-
-
-@njit(cache=True, error_model="numpy")
 def block_keys(pix, b0, b1, base):
     """The keys of a whole-frame kernel's block of points (pixels pix[b0:b1]), made by the
     worker that uses them (base: RtFrame.key_base): a pass over every pixel before the frame,
@@ -766,45 +751,60 @@ def no_rays():
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def direct_block(G, b0, keys, lights, one, dim0, far, tr, total):
-    """Irradiance x cos from every light (one shadow ray each, dimensions dim0 + 3k) or from one
-    chosen light (one: dimensions dim0..dim0+3) at points b0.. of G (keys: theirs), traced here
-    and added into total (zeroed first); returns the rays traced. lights: LightSet.kernel_args.
-    tr without a scene (rtcore.no_trace): unshadowed (the study's cheap GI), every ray's light
-    added, none traced."""
-    n_lights = lights[3]
-    total[:, :min(total.shape[1], SUM_EDVW + 3)] = ZERO  # a GGX accumulator's view and alpha stay
-    if n_lights == 0:
-        return 0
-    o, d, t, e, idx = no_rays()
-    if tr[0] == 0:  # the rays packed, light by light, and all of them added (as shading._gather)
-        n = keys.shape[0]
-        o, d, t, e, idx = (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
-                           np.empty((n, 3), np.float32), np.empty(n, np.int32))
-        for k in range(1 if one else n_lights):
-            m = _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total)
-            add_unblocked(total, idx, d, e, np.zeros(m, np.bool_), m, G, b0)
-        return 0
+def _direct_start(n, tr, total):
+    """direct_all's and direct_one's set-up: total zeroed (a GGX accumulator's view and alpha
+    stay), and ray buffers for n points where tr has no scene (rtcore.no_trace: the rays are
+    packed, then added unshadowed), else none (the generators trace what they make)."""
+    total[:, :min(total.shape[1], SUM_EDVW + 3)] = ZERO
+    if tr[0] != 0:
+        return no_rays()
+    return (np.empty((n, 3), np.float32), np.empty((n, 3), np.float32), np.empty(n, np.float32),
+            np.empty((n, 3), np.float32), np.empty(n, np.int32))
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _traced_or_added(m, tr, total, idx, d, e, G, b0):
+    """The rays a light's generator made: traced into total already (tr has a scene: m of them),
+    or packed, and added here unshadowed (none traced, as shading._gather)."""
+    if tr[0] != 0:
+        return m
+    add_unblocked(total, idx, d, e, np.zeros(m, np.bool_), m, G, b0)
+    return 0
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def direct_all(G, b0, keys, lights, dim0, far, tr, total):
+    """Irradiance x cos from every light (one shadow ray each, dimensions dim0 + 3k) at points
+    b0.. of G (keys: theirs), traced here and added into total (zeroed first); returns the rays
+    traced. lights: LightSet.kernel_args. tr without a scene (rtcore.no_trace): unshadowed (the
+    study's cheap GI), every ray's light added, none traced. A function of its own, not a branch
+    of direct_one's: a kernel compiles only the light sampling that its options use (issue 44)."""
+    analytic, emitters, guide, n_lights = lights
+    o, d, t, e, idx = _direct_start(keys.shape[0], tr, total)
+    start, rows, keep, alias = emitters
+    count_analytic = analytic[0].shape[0]
     traced = 0
-    for k in range(1 if one else n_lights):
-        traced += _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total)
+    for k in range(n_lights):
+        dim = dim0 + 3 * k
+        if k < count_analytic:
+            m = analytic_shadow_rays(k, G, b0, keys, dim, analytic, far, o, d, t, e, idx, tr, total)
+        else:
+            j = k - count_analytic
+            m = cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, o, d, t, e, idx,
+                                    tr, total)
+        traced += _traced_or_added(m, tr, total, idx, d, e, G, b0)
     return traced
 
 
-@njit(cache=True, error_model="numpy")
-def _light_rays(k, G, b0, keys, lights, one, dim0, far, o, d, t, e, idx, tr, total):
-    """direct_block's rays: to one chosen light (one), else to light k (dimensions dim0 + 3k),
-    packed into o, d, t, e, idx or traced into total (tr has a scene); returns their count."""
+@njit(cache=True, error_model="numpy", nogil=True)
+def direct_one(G, b0, keys, lights, dim0, far, tr, total):
+    """direct_all's light from one light per point, chosen by its contribution there
+    (dimensions dim0..dim0+3; one_light_shadow_rays)."""
     analytic, emitters, guide, n_lights = lights
-    if one:
-        weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
-        return one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, far, weights, o, d, t, e, idx,
-                                     tr, total, False)
-    start, rows, keep, alias = emitters
-    count_analytic = analytic[0].shape[0]
-    dim = dim0 + 3 * k
-    if k < count_analytic:
-        return analytic_shadow_rays(k, G, b0, keys, dim, analytic, far, o, d, t, e, idx, tr, total)
-    j = k - count_analytic
-    return cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, o, d, t, e, idx,
-                               tr, total)
+    o, d, t, e, idx = _direct_start(keys.shape[0], tr, total)
+    if n_lights == 0:
+        return 0
+    weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
+    m = one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, far, weights, o, d, t, e, idx, tr,
+                              total, False)
+    return _traced_or_added(m, tr, total, idx, d, e, G, b0)

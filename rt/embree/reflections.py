@@ -4,12 +4,11 @@ colour. `lit=false` reproduces the study (hits show their material colour only).
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
-from rt.embree.kernels import shade_hits
+from rt.embree.kernels import next_block, shade_hits
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
@@ -53,8 +52,8 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl):
     if lit:
         hg = np.empty((9, k), np.float32)
         raygen.surface_soa(HP, HN, HNG, hg)
-        traced += raygen.direct_block(hg, 0, hkeys, scene.lights, True, dim0, scene.far, frame.target,
-                                      hdirect)
+        traced += raygen.direct_one(hg, 0, hkeys, scene.lights, dim0, scene.far, frame.target,
+                                    hdirect)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)
     return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
@@ -145,73 +144,72 @@ def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
     return traced
 
 
-@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def reflections_frame(workers, scene, frame, base, thr, lit, depth, ggx, glossy):
+@njit(cache=True, error_model="numpy", nogil=True)
+def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx, glossy):
     """The whole reflections pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs;
-    base: RtFrame.key_base). Blocks of points split among workers, each block: the local colour
-    (lit: one chosen light, shadowed; else the albedo, as the study), a mirror ray from each
-    point smoother than thr, its closest hit shaded (lit: with its own light sample), up to
-    `depth` mirrors deep (_deeper), Fresnel's blend (ggx and lit: glTF's BRDF, brdf.py, whose
-    direct light has its own Fresnel split: the reflection is added, F x it; with glossy, points at
-    or above thr add one ray of their GGX lobe, _glossy); then the block's pixels, the reflection
-    (RGBA) into frame.aux, and the uncovered pixels around them. Returns the rays traced."""
+    base: RtFrame.key_base). One worker of the pass (Tracer.run_parallel runs one per thread),
+    taking blocks of points (next_block on counter, bounds) until none is left; each block: the
+    local colour (lit: one chosen light, shadowed; else the albedo, as the study), a mirror ray
+    from each point smoother than thr, its closest hit shaded (lit: with its own light sample),
+    up to `depth` mirrors deep (_deeper), Fresnel's blend (ggx and lit: glTF's BRDF, brdf.py,
+    whose direct light has its own Fresnel split: the reflection is added, F x it; with glossy,
+    points at or above thr add one ray of their GGX lobe, _glossy); then the block's pixels, the
+    reflection (RGBA) into frame.aux, and the uncovered pixels around them. Returns the rays it
+    traced."""
     pix = frame.pix
     n = pix.shape[0]
-    bounds = raygen.block_bounds(n, workers)
-    counter = np.zeros(1, np.int64)  # blocks taken (raygen.next_block)
-    traced = np.zeros(workers, np.int64)  # by each worker (a scalar summed across this prange came out 0)
-    for w in prange(workers):  # each takes blocks until none is left
-        while True:
-            b0, b1 = raygen.next_block(counter, bounds)
-            if b0 >= n:
-                break
-            nb = b1 - b0
-            keys = raygen.block_keys(pix, b0, b1, base)
-            albedo = frame.albedo[b0:b1]
-            # ---- the local colour ----
-            local = np.empty((nb, 3), np.float32)
-            if lit:
-                acc = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-                traced[w] += raygen.direct_block(frame.points, b0, keys, scene.lights, True, 0, scene.far,
-                                                 frame.target, acc)
-                for j in range(nb):
-                    for a in range(3):
-                        local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
-            else:
-                local[:] = albedo
-            # ---- mirror rays from the smooth points, their hits, and deeper mirrors ----
-            smooth, near = np.empty(nb, np.int64), np.empty(nb, np.int64)  # frame rows, block rows
-            m = 0
+    traced = 0
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= n:
+            break
+        nb = b1 - b0
+        keys = raygen.block_keys(pix, b0, b1, base)
+        albedo = frame.albedo[b0:b1]
+        # ---- the local colour ----
+        local = np.empty((nb, 3), np.float32)
+        if lit:
+            acc = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
+            traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
+                                        frame.target, acc)
             for j in range(nb):
-                if frame.roughness[b0 + j] < thr:
-                    smooth[m], near[m] = b0 + j, j
-                    m += 1
-            V, skeys = np.empty((m, 3), np.float32), np.empty(m, np.uint64)
-            for k in range(m):
-                p = pix[smooth[k]]
-                V[k, 0], V[k, 1], V[k, 2] = frame.view_dir[p, 0], frame.view_dir[p, 1], frame.view_dir[p, 2]
-                skeys[k] = keys[near[k]]
-            refl = np.zeros((m, 3), np.float32)
-            hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-                scene, frame, frame.p, frame.n, frame.ng, V, smooth[:m], skeys, 4, lit, ggx, refl)
-            traced[w] += t
-            if depth > 1:
-                traced[w] += _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d,
-                                     hits, hkeys, colour)
-            for i in range(hits.shape[0]):
                 for a in range(3):
-                    refl[hits[i], a] = colour[i, a]
-            # ---- Fresnel's blend, and the pixels ----
-            reflection = np.zeros((nb, 4), np.float32)
-            gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo, frame.metallic[b0:b1],
-                                frame.n[b0:b1], V, refl, reflection, ggx and lit)
-            if glossy and ggx and lit:
-                traced[w] += _glossy(scene, frame, pix, b0, nb, keys, thr, local)
-            local += frame.emissive[b0:b1]
-            gather.put_rows(frame.out, pix[b0:b1], local)
-            gather.put_rows(frame.aux, pix[b0:b1], reflection)
-            gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
-    return traced.sum()
+                    local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
+        else:
+            local[:] = albedo
+        # ---- mirror rays from the smooth points, their hits, and deeper mirrors ----
+        smooth, near = np.empty(nb, np.int64), np.empty(nb, np.int64)  # frame rows, block rows
+        m = 0
+        for j in range(nb):
+            if frame.roughness[b0 + j] < thr:
+                smooth[m], near[m] = b0 + j, j
+                m += 1
+        V, skeys = np.empty((m, 3), np.float32), np.empty(m, np.uint64)
+        for k in range(m):
+            p = pix[smooth[k]]
+            V[k, 0], V[k, 1], V[k, 2] = frame.view_dir[p, 0], frame.view_dir[p, 1], frame.view_dir[p, 2]
+            skeys[k] = keys[near[k]]
+        refl = np.zeros((m, 3), np.float32)
+        hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
+            scene, frame, frame.p, frame.n, frame.ng, V, smooth[:m], skeys, 4, lit, ggx, refl)
+        traced += t
+        if depth > 1:
+            traced += _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d,
+                              hits, hkeys, colour)
+        for i in range(hits.shape[0]):
+            for a in range(3):
+                refl[hits[i], a] = colour[i, a]
+        # ---- Fresnel's blend, and the pixels ----
+        reflection = np.zeros((nb, 4), np.float32)
+        gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo, frame.metallic[b0:b1],
+                            frame.n[b0:b1], V, refl, reflection, ggx and lit)
+        if glossy and ggx and lit:
+            traced += _glossy(scene, frame, pix, b0, nb, keys, thr, local)
+        local += frame.emissive[b0:b1]
+        gather.put_rows(frame.out, pix[b0:b1], local)
+        gather.put_rows(frame.aux, pix[b0:b1], reflection)
+        gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
+    return traced
 
 
 def trace(rf) -> dict:
@@ -219,7 +217,8 @@ def trace(rf) -> dict:
     rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
     out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        reflections_frame, rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(3),
+        reflections_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, reflection_image),
+        rf.key_base(3),
         np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
         rf.options.get("reflections.max_depth"), rf.ggx, rf.options.get("reflections.glossy"))
     return rf.outputs(out, rt_reflection=reflection_image)

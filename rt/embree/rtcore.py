@@ -19,11 +19,11 @@ import os
 
 import numpy as np
 from llvmlite import binding as llvm
-from numba import prange, types
+from numba import types
 
 from core.errors import UserError
 from rt.embree.jit import njit
-from rt.embree.kernels import take_many
+from rt.embree.kernels import next_block, take_many
 
 INVALID = np.uint32(0xFFFFFFFF)
 MISS_T = np.float32(1e30)  # t of a ray that hit nothing (rt.tracer.INF)
@@ -259,31 +259,31 @@ def trace_intersect(tr, o, d, tmax, t, prim, u, v):
     intersect(tr[0], o, d, tmax, t, prim, u, v)
 
 
-BLOCK = 2048  # rays per work item of the parallel kernels below
-
-
-@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def occluded_parallel(workers, scene, o, d, tmax, out):
-    """occluded() on `workers` of numba's threads, each taking every workers-th block of BLOCK
-    rays (no Python per block: Embree's own throughput on these rays)."""
+@njit(cache=True, error_model="numpy", nogil=True)
+def occluded_blocks(counter, bounds, scene, o, d, tmax, out):
+    """occluded() as one worker of Tracer.run_parallel: blocks of rays (bounds) taken in turn
+    until none is left, no Python per block (Embree's own throughput on these rays)."""
     n = o.shape[0]
-    for w in prange(workers):
-        buf, b = ray_buffer()
-        words = buf.view(np.uint32)
-        for start in range(w * BLOCK, n, workers * BLOCK):
-            for i in range(start, min(start + BLOCK, n)):
-                out[i] = occluded1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2],
-                                   tmax[i])
+    buf, b = ray_buffer()
+    words = buf.view(np.uint32)
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= n:
+            return 0
+        for i in range(b0, b1):
+            out[i] = occluded1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
 
 
-@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def intersect_parallel(workers, scene, o, d, tmax, t, prim, u, v):
-    """intersect() as occluded_parallel splits its work."""
+@njit(cache=True, error_model="numpy", nogil=True)
+def intersect_blocks(counter, bounds, scene, o, d, tmax, t, prim, u, v):
+    """intersect() as occluded_blocks splits its work."""
     n = o.shape[0]
-    for w in prange(workers):
-        buf, b = ray_buffer()
-        words = buf.view(np.uint32)
-        for start in range(w * BLOCK, n, workers * BLOCK):
-            for i in range(start, min(start + BLOCK, n)):
-                t[i], prim[i], u[i], v[i] = intersect1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2],
-                                                       d[i, 0], d[i, 1], d[i, 2], tmax[i])
+    buf, b = ray_buffer()
+    words = buf.view(np.uint32)
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= n:
+            return 0
+        for i in range(b0, b1):
+            t[i], prim[i], u[i], v[i] = intersect1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2],
+                                                   d[i, 0], d[i, 1], d[i, 2], tmax[i])

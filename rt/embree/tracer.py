@@ -17,6 +17,7 @@ import numpy as np
 
 from rt.embree import rtcore as embree
 from rt.embree.kernels import serial_kernels
+from rt.embree.raygen import block_bounds
 
 INF = np.float32(1e30)
 
@@ -57,12 +58,12 @@ class Tracer:
         while rays are recorded. The caller adds the rays traced to rays_traced."""
         raise NotImplementedError
 
-    def run_parallel(self, kernel, *args):
-        """kernel(workers, *args): a numba parallel kernel that splits its work among `workers`
-        of numba's threads, on this tracer's threads."""
-        import numba
-
-        return kernel(numba.get_num_threads(), *args)
+    def run_parallel(self, kernel, n: int, *args) -> int:
+        """A whole-frame kernel over n points: kernel(counter, bounds, *args) is one worker, which
+        takes blocks of points until none is left (raygen.block_bounds, next_block) and returns
+        the rays it traced; the sum over workers is returned. This default runs one worker."""
+        counter, bounds = np.zeros(1, np.int64), block_bounds(n, 1)
+        return int(kernel(counter, bounds, *args))
 
     def map_chunks(self, n: int, work, key=None) -> None:
         """work(c, tracer) for slices c covering range(n); a backend may run them concurrently,
@@ -183,18 +184,16 @@ class EmbreeTracer(Tracer):
         log = self.recording
         return embree.target(self.handle, *((log.rays, log.count) if log is not None else ()))
 
-    def run_parallel(self, kernel, *args):
-        """kernel(workers, *args) on self.threads of numba's threads (a setting of the calling
-        thread's; a kernel that asked numba itself could not be cached)."""
-        import numba
-
-        threads = numba.get_num_threads()
-        workers = min(self.threads, numba.config.NUMBA_NUM_THREADS)
-        numba.set_num_threads(workers)
-        try:
-            return kernel(workers, *args)
-        finally:
-            numba.set_num_threads(threads)
+    def run_parallel(self, kernel, n: int, *args) -> int:
+        """Tracer.run_parallel with a worker on each of this tracer's threads. The kernels are
+        serial and release the GIL (nogil): threads here rather than numba's parallel loops,
+        whose lowering compiled each kernel's whole body four times over (issue 44)."""
+        workers = self.threads if self.pool is not None else 1
+        counter, bounds = np.zeros(1, np.int64), block_bounds(n, workers)
+        if workers == 1:
+            return int(kernel(counter, bounds, *args))
+        running = [self.pool.submit(kernel, counter, bounds, *args) for _ in range(workers)]
+        return sum(int(r.result()) for r in running)
 
     def serial_view(self) -> EmbreeTracer:
         """The same scene, traced on the calling thread (for code already running in a chunk)."""
@@ -278,8 +277,8 @@ class EmbreeTracer(Tracer):
         shading or Python per chunk: the fastest this code can trace these rays, so the pass's
         physical limit). Returns the seconds spent."""
         runs = []
-        for kind, fn, outputs in (("occluded", embree.occluded_parallel, (bool,)),
-                                  ("intersect", embree.intersect_parallel, (np.float32, np.int32, np.float32,
+        for kind, fn, outputs in (("occluded", embree.occluded_blocks, (bool,)),
+                                  ("intersect", embree.intersect_blocks, (np.float32, np.int32, np.float32,
                                                                              np.float32))):
             mine = [b for b in batches if b[0] == kind]
             if not mine:
@@ -289,7 +288,7 @@ class EmbreeTracer(Tracer):
             runs.append((fn, o, d, t, *(np.empty(o.shape[0], dt) for dt in outputs)))
         t0 = time.perf_counter()
         for fn, *args in runs:
-            self.run_parallel(fn, self.handle, *args)
+            self.run_parallel(fn, args[0].shape[0], self.handle, *args)
         return time.perf_counter() - t0
 
     def set_threads(self, threads: int) -> None:
