@@ -21,7 +21,7 @@ from numba.extending import intrinsic
 from rt.embree import textures
 from rt.embree.jit import njit
 from rt.layout import GX, GY, GZ, NX, NY, NZ, PX, PY, PZ
-from rt.mesh import LAYER_BASE, LAYER_EMISSION, LAYER_ORM
+from rt.mesh import LAYER_BASE, LAYER_EMISSION, LAYER_NORMAL, LAYER_ORM
 
 TWO_PI = 2.0 * math.pi
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)
@@ -200,28 +200,29 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
         ln = math.sqrt(nx * nx + ny * ny + nz * nz)
         if ln < 1e-20:
             nx, ny, nz, ln = gx, gy, gz, 1.0
-        nx, ny, nz = textures.normal_mapped(c, m, w0, w1, w2, nx / ln, ny / ln, nz / ln, u, v, tex_offset, tex_w,
-                                            tex_h, wrap, tex_data)
+        nx, ny, nz = nx / ln, ny / ln, nz / ln
+        if tex_offset[m, LAYER_NORMAL] >= 0:  # each texture a call, made only where the layer is there
+            nx, ny, nz = textures.normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex_offset, tex_w, tex_h, wrap,
+                                                tex_data)
         if nx * gx + ny * gy + nz * gz < 0:
             nx, ny, nz = -nx, -ny, -nz
         N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
-        found, at = textures.texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)
         r = g = b = 1.0
-        if found:
-            r, g, b = textures.mix(tex_data, at, 0), textures.mix(tex_data, at, 1), textures.mix(tex_data, at, 2)
+        if tex_offset[m, LAYER_BASE] >= 0:
+            r, g, b, _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)
         if colors.shape[0] > 1:  # vertex colours (colors: one white row where the scene has none)
             vc = colors[tri]
             r *= w0 * vc[0] + w1 * vc[3] + w2 * vc[6]
             g *= w0 * vc[1] + w1 * vc[4] + w2 * vc[7]
             b *= w0 * vc[2] + w1 * vc[5] + w2 * vc[8]
         albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
-        found, at = textures.texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_ORM, u, v)
-        rough[k] = textures.mix(tex_data, at, 1) if found else roughness[m]
-        metal[k] = textures.mix(tex_data, at, 2) if found else metallic[m]
-        found, at = textures.texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_EMISSION, u, v)
-        if found:
-            emis[k, 0], emis[k, 1], emis[k, 2] = (textures.mix(tex_data, at, 0), textures.mix(tex_data, at, 1),
-                                                  textures.mix(tex_data, at, 2))
+        if tex_offset[m, LAYER_ORM] >= 0:
+            _, rough[k], metal[k], _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_ORM, u, v)
+        else:
+            rough[k], metal[k] = roughness[m], metallic[m]
+        if tex_offset[m, LAYER_EMISSION] >= 0:
+            emis[k, 0], emis[k, 1], emis[k, 2], _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m,
+                                                                    LAYER_EMISSION, u, v)
         else:
             emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
 

@@ -52,7 +52,8 @@ def _finish(frame, b0, b1, irradiance, grey, ggx):
     albedo, metallic = frame.albedo[b0:b1], frame.metallic[b0:b1]
     gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, None, grey)
     if frame.aux.shape[0] > 0:
-        gather.put_rows(frame.aux, pix[b0:b1], gather.direct_radiance(irradiance, albedo, metallic) if ggx else irradiance)
+        gather.put_rows(frame.aux, pix[b0:b1],
+                        gather.direct_radiance(irradiance, albedo, metallic) if ggx else irradiance)
     gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
 
 

@@ -1,6 +1,5 @@
 """Texture layers at hit points (rt/mesh.py's flat RGBA texel array, one run per material and
-layer): bilinear samples with glTF's wrap modes (the four texels found once, then only the
-channels a caller needs read), the alpha test that cuts masked surfaces
+layer): bilinear samples with glTF's wrap modes, the alpha test that cuts masked surfaces
 (every ray's hits go through it: rt/embree/alpha.py), and normal mapping."""
 from __future__ import annotations
 
@@ -12,7 +11,7 @@ from rt.mesh import LAYER_BASE, LAYER_NORMAL
 UV_LIMIT = 1e6  # texture coordinates are clamped to this before they become texel indices
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def wrap_index(i, n, mode):
     """Texel index i of n under a wrap mode (scenes.model.WRAP_*: 0 repeat, 1 clamp, 2 mirror)."""
     if mode == 1:
@@ -23,7 +22,7 @@ def wrap_index(i, n, mode):
     return i % n
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def bilinear(off, tw, th, wu, wv, u, v):
     """The four texel rows (top-left, top-right, bottom-left, bottom-right) of a bilinear
     sample of the texture at tex_data[off:off + tw * th] (rows top first), and their weights."""
@@ -40,7 +39,7 @@ def bilinear(off, tw, th, wu, wv, u, v):
             (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def nearest(off, tw, th, wu, wv, u, v):
     """bilinear's rows and weights for the one texel (u, v) falls in (its weight 1)."""
     u = min(max(u, -UV_LIMIT), UV_LIMIT)
@@ -49,33 +48,30 @@ def nearest(off, tw, th, wu, wv, u, v):
     return (i, i, i, i, 1.0, 0.0, 0.0, 0.0)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def mix(tex_data, at, a):
-    """Channel a of the bilinear sample at (bilinear's result)."""
-    i00, i01, i10, i11, w00, w01, w10, w11 = at
-    return (tex_data[i00, a] * w00 + tex_data[i01, a] * w01 + tex_data[i10, a] * w10 + tex_data[i11, a] * w11)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def texels(tex_offset, tex_w, tex_h, wrap, m, k, u, v):
-    """(present, bilinear rows and weights) of material m's layer k at (u, v): read only the
-    channels needed with mix()."""
+@njit(cache=True, error_model="numpy")
+def sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, k, u, v):
+    """RGBA of material m's layer k at (u, v), a layer it has (tex_offset[m, k] >= 0): bilinear,
+    or the nearest texel (Material.nearest). A call of its own, made only where the layer is
+    there: numba's inline="always" re-typed this at every call site, seconds each (issue 44)."""
     off = tex_offset[m, k]
-    if off < 0:
-        return False, (0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
-    if wrap[m, 2]:  # Material.nearest
-        return True, nearest(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
-    return True, bilinear(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
+    if wrap[m, 2]:
+        i00, i01, i10, i11, w00, w01, w10, w11 = nearest(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
+    else:
+        i00, i01, i10, i11, w00, w01, w10, w11 = bilinear(off, tex_w[m, k], tex_h[m, k], wrap[m, 0], wrap[m, 1], u, v)
+    return (tex_data[i00, 0] * w00 + tex_data[i01, 0] * w01 + tex_data[i10, 0] * w10 + tex_data[i11, 0] * w11,
+            tex_data[i00, 1] * w00 + tex_data[i01, 1] * w01 + tex_data[i10, 1] * w10 + tex_data[i11, 1] * w11,
+            tex_data[i00, 2] * w00 + tex_data[i01, 2] * w01 + tex_data[i10, 2] * w10 + tex_data[i11, 2] * w11,
+            tex_data[i00, 3] * w00 + tex_data[i01, 3] * w01 + tex_data[i10, 3] * w10 + tex_data[i11, 3] * w11)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def hit_uv(c, w1, w2):
     """The uv at barycentrics (w1, w2) of a triangle's corner row c (rt/mesh.py)."""
     w0 = 1.0 - w1 - w2
     return w0 * c[9] + w1 * c[11] + w2 * c[13], w0 * c[10] + w1 * c[12] + w2 * c[14]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def passes_alpha(corners, tex_offset, tex_w, tex_h, wrap, tex_data, cutoff, base_alpha, prim, w1, w2):
     """False where a masked material is cut away at this hit: alpha (base alpha x texture
     alpha) below its cutoff."""
@@ -86,18 +82,18 @@ def passes_alpha(corners, tex_offset, tex_w, tex_h, wrap, tex_data, cutoff, base
     alpha = base_alpha[m]
     if tex_offset[m, LAYER_BASE] >= 0:
         u, v = hit_uv(c, w1, w2)
-        alpha *= mix(tex_data, texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)[1], 3)
+        alpha *= sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)[3]
     return alpha >= cutoff[m]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex_offset, tex_w, tex_h, wrap, tex_data):
     """The shading normal (nx, ny, nz: the interpolated unit vertex normal) bent by material
-    m's normal map in the frame of the interpolated vertex tangents (row columns 16..27)."""
-    if tex_offset[m, LAYER_NORMAL] < 0 or c.shape[0] < 28:
+    m's normal map (which it has: tex_offset[m, LAYER_NORMAL] >= 0) in the frame of the
+    interpolated vertex tangents (row columns 16..27)."""
+    if c.shape[0] < 28:
         return nx, ny, nz
-    at = texels(tex_offset, tex_w, tex_h, wrap, m, LAYER_NORMAL, u, v)[1]
-    mx, my, mz = mix(tex_data, at, 0), mix(tex_data, at, 1), mix(tex_data, at, 2)
+    mx, my, mz, _ = sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_NORMAL, u, v)
     tx = w0 * c[16] + w1 * c[20] + w2 * c[24]
     ty = w0 * c[17] + w1 * c[21] + w2 * c[25]
     tz = w0 * c[18] + w1 * c[22] + w2 * c[26]
