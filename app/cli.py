@@ -91,6 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("warmup", help="compile every ray-tracing kernel ahead of use (once per version)")
     s.add_argument("--jobs", type=int, metavar="N", help="processes compiling side by side (default: one per "
                    "core, at most 4)")
+    s.add_argument("--software-gpu", action="store_true", help="also the software Vulkan device's pipelines "
+                   "(lavapipe: minutes on a CPU; the test suite uses them)")
+    s.add_argument("--force", action="store_true", help="compile again what this version has compiled already")
     s.add_argument("--variants", help=argparse.SUPPRESS)  # one worker's share (app/warmup.py)
 
     s = sub.add_parser("devices", help="list the ray-tracing backends available here, and what tracer=auto picks")
@@ -135,7 +138,7 @@ def cmd_warmup(args) -> int:
         return 0
     if args.jobs is not None and args.jobs < 1:
         raise UserError(f"--jobs must be at least 1, got {args.jobs}")
-    return run_warmup(args.jobs)
+    return run_warmup(args.jobs, software_gpu=args.software_gpu, force=args.force)
 
 
 def cmd_devices(args) -> int:

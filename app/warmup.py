@@ -22,12 +22,22 @@ PROG = "rtlab"
 FAMILIES = (
     (("shadows", "shadows", []), ("shadows", "shadows", ["shadows.lights=one"]), ("gi", "gi", []),
      ("gi", "gi", ["gi.bounces=2", "gi.shadows=false"])),
-    (("reflections", "reflections", ["reflections.max_depth=2"]),
+    (("reflections", "reflections", []), ("reflections", "reflections", ["reflections.max_depth=2"]),
      ("hybrid", "hybrid", ["hybrid.gi=true", "hybrid.reflections=true"])),
     (("ao", "ao", []),),
     (("gbuffer=rt", "normal", ["gbuffer=rt"]), ("reference", "reference", [])),
 )
-VARIANTS = tuple(v for family in FAMILIES for v in family)
+# --software-gpu: every pipeline of a software Vulkan device (lavapipe: up to a minute each on a
+# CPU; Mesa caches them on disk), in two processes of their own beside the kernels' (the test
+# suite's workers would otherwise each compile them)
+SOFTWARE_FAMILIES = (
+    (("vulkan:reference", "reference", ["tracer=vulkan"]),),
+    (("vulkan:reflections", "reflections", ["tracer=vulkan"]), ("vulkan:gi", "gi", ["tracer=vulkan"]),
+     ("vulkan:ao", "ao", ["tracer=vulkan"]), ("vulkan:shadows", "shadows", ["tracer=vulkan"]),
+     ("vulkan:hybrid", "hybrid", ["tracer=vulkan", "hybrid.gi=true", "hybrid.reflections=true"]),
+     ("vulkan:gbuffer=rt", "normal", ["tracer=vulkan", "gbuffer=rt"])),
+)
+VARIANTS = tuple(v for family in FAMILIES + SOFTWARE_FAMILIES for v in family)
 
 
 def default_jobs() -> int:
@@ -50,6 +60,7 @@ def compile_variants(indices: list[int]) -> None:
     for i in indices:
         key, pass_name, sets = VARIANTS[i]
         print(f"start {i}", flush=True)
+        on_device = any(s.startswith("tracer=") for s in sets)
         t0 = time.perf_counter()
         options = Options()
         options.apply(sets)
@@ -59,7 +70,7 @@ def compile_variants(indices: list[int]) -> None:
         renderer.release()
         spent[key] = spent.get(key, 0.0) + time.perf_counter() - t0
         compiled[key] = compiled.get(key, False) or watch.compiles > 0
-        if i == max(j for j in indices if VARIANTS[j][0] == key):  # the key's last variant here
+        if not on_device and i == max(j for j in indices if VARIANTS[j][0] == key):  # the key's last variant
             record_compile(key, spent[key] if compiled[key] else None)
         print(f"done {i} {time.perf_counter() - t0:.1f}", flush=True)
 
@@ -77,14 +88,34 @@ def _stop_workers(signum, frame) -> None:
     raise SystemExit(128 + signum)
 
 
-def run_warmup(jobs: int | None = None) -> int:
+def run_warmup(jobs: int | None = None, software_gpu: bool = False, force: bool = False) -> int:
     """Compile every variant in `jobs` processes (default: one per core, up to the families'
-    count); progress lines `rtlab: warmup K/N: NAME (T s)` as each variant starts."""
-    jobs = max(1, min(jobs or default_jobs(), len(FAMILIES)))
+    count), leaving out the kernels this version has compiled already (unless force), and with
+    software_gpu the software Vulkan device's pipelines in processes of their own; progress lines
+    `rtlab: warmup K/N: NAME (T s)` as each variant starts."""
+    from rt.embree.compile_log import compiled_keys
+
+    done = set() if force else compiled_keys()
+    if software_gpu and not _software_vulkan():
+        print(f"{PROG}: no software Vulkan device here: --software-gpu leaves its pipelines out")
+        software_gpu = False
+    families, start = [], 0
+    for family in FAMILIES + (SOFTWARE_FAMILIES if software_gpu else ()):
+        indices = list(range(start, start + len(family)))
+        start += len(family)
+        if family in FAMILIES and {key for key, _, _ in family} <= done:
+            continue
+        families.append((family in SOFTWARE_FAMILIES, indices))
+    kernel_families = [f for software, f in families if not software]
+    jobs = max(1, min(jobs or default_jobs(), len(kernel_families) or 1))
     groups = [[] for _ in range(jobs)]
-    for f, family in enumerate(FAMILIES):  # families in order, to the process with the least so far
-        start = sum(len(fam) for fam in FAMILIES[:f])
-        min(groups, key=len).extend(range(start, start + len(family)))
+    for indices in kernel_families:  # families in order, to the process with the least so far
+        min(groups, key=len).extend(indices)
+    groups += [indices for software, indices in families if software]
+    todo = sum(len(g) for g in groups)
+    if not todo:
+        print(f"{PROG}: every kernel is compiled for this version already (--force compiles them again)")
+        return warm_gpu_shaders()
     t0 = time.perf_counter()
     signal.signal(signal.SIGTERM, _stop_workers)  # the viewer's stop(): end the workers, then this process
     procs = _workers[:] = [subprocess.Popen([sys.executable, "-m", "app.cli", "warmup", "--variants",
@@ -101,7 +132,7 @@ def run_warmup(jobs: int | None = None) -> int:
                 with lock:
                     started[0] += 1
                     label = pass_name + (f" ({' '.join(sets)})" if sets else "")
-                    print(f"{PROG}: warmup {started[0]}/{len(VARIANTS)}: {label} "
+                    print(f"{PROG}: warmup {started[0]}/{todo}: {label} "
                           f"({time.perf_counter() - t0:.0f} s)", flush=True)
             elif word != "done" and line.strip():
                 last = line.strip()
@@ -118,6 +149,18 @@ def run_warmup(jobs: int | None = None) -> int:
         return 1
     print(f"{PROG}: kernels compiled and cached in {time.perf_counter() - t0:.0f} s ({len(procs)} processes)")
     return warm_gpu_shaders()
+
+
+def _software_vulkan() -> bool:
+    """Whether this machine's Vulkan device is a software one (lavapipe)."""
+    from core.errors import UserError
+    from rt.slang.device import describe
+
+    try:
+        info = describe("vulkan")
+    except UserError:  # no slangpy
+        return False
+    return info is not None and info.software
 
 
 GPU_MODES = ("ao", "shadows", "gi", "reflections", "reference", "hybrid")

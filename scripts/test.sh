@@ -4,9 +4,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 . scripts/python.sh
-# every kernel compiled once, in parallel processes, before the tests that use them
-$PY -c "import sys; from rt.backends import kernels_ready; sys.exit(0 if kernels_ready() else 1)" \
-    || $PY -m app.cli warmup
+# every kernel and software Vulkan pipeline compiled once, in parallel processes, before the
+# tests that use them (what this version has compiled already is left out)
+$PY -m app.cli warmup --software-gpu
 # one test worker per core, at most 4 (each also runs threads of its own)
 jobs=$(nproc 2>/dev/null || echo 1); [ "$jobs" -gt 4 ] && jobs=4
 exec $PY -m pytest -q -n "${RTLAB_TEST_JOBS:-$jobs}" "$@"

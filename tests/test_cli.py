@@ -93,12 +93,19 @@ def test_view_without_display_suggests_shot():
 def test_warmup_compiles_every_kernel_and_says_so(tmp_path):
     """rtlab warmup renders every ray-traced pass once, in parallel processes (scripts/test.sh
     runs it), so a user's first frame does not wait for the compiler; each of its nine variants
-    says when it starts, and every pass is then recorded compiled."""
-    r = rtlab("warmup", "--jobs", "2", cwd=tmp_path)
+    says when it starts, and every pass is then recorded compiled; run again, it compiles nothing
+    (unless --force)."""
+    from app.warmup import FAMILIES
+
+    r = rtlab("warmup", "--jobs", "2", "--force", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert "kernels compiled and cached" in r.stdout and "(2 processes)" in r.stdout
     steps = [line for line in r.stdout.splitlines() if " warmup " in line]
-    assert sorted(int(line.split(" warmup ")[1].split("/")[0]) for line in steps) == list(range(1, 10))
+    variants = sum(len(family) for family in FAMILIES)
+    assert sorted(int(line.split(" warmup ")[1].split("/")[0]) for line in steps) == list(range(1, variants + 1))
     from rt.backends import kernels_ready
 
     assert kernels_ready()
+    again = rtlab("warmup", cwd=tmp_path)
+    assert again.returncode == 0 and "compiled for this version already" in again.stdout
+    assert " warmup " not in again.stdout

@@ -32,7 +32,7 @@ def test_cold_cache_warmup_then_first_frames(tmp_path, display, capsys):
                        timeout=1200)
     record["warmup_cold_s"] = round(time.perf_counter() - t0, 1)
     assert r.returncode == 0, r.stderr
-    assert len([line for line in r.stdout.splitlines() if " warmup " in line]) == 9  # its progress lines
+    assert len([line for line in r.stdout.splitlines() if " warmup " in line]) == 10  # its progress lines
     compiled = _files(cache)
     assert any(name.endswith(".nbi") for name in compiled), "warmup left no compiled kernel in the cache"
 

@@ -149,76 +149,126 @@ def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx,
     """The whole reflections pass in one call (scene, frame: kernel_args.SceneArgs, FrameArgs;
     base: RtFrame.key_base). One worker of the pass (Tracer.run_parallel runs one per thread),
     taking blocks of points (next_block on counter, bounds) until none is left; each block: the
-    local colour (lit: one chosen light, shadowed; else the albedo, as the study), a mirror ray
-    from each point smoother than thr, its closest hit shaded (lit: with its own light sample),
-    up to `depth` mirrors deep (_deeper), Fresnel's blend (ggx and lit: glTF's BRDF, brdf.py,
-    whose direct light has its own Fresnel split: the reflection is added, F x it; with glossy,
-    points at or above thr add one ray of their GGX lobe, _glossy); then the block's pixels, the
-    reflection (RGBA) into frame.aux, and the uncovered pixels around them. Returns the rays it
-    traced."""
+    local colour (_local), a mirror ray from each point smoother than thr, its closest hit shaded
+    (lit: with its own light sample), up to `depth` mirrors deep (_deeper), Fresnel's blend
+    (_blend; with glossy, points at or above thr add one ray of their GGX lobe, _glossy); then
+    the block's pixels, the reflection (RGBA) into frame.aux, and the uncovered pixels around
+    them (_write). Returns the rays it traced."""
     pix = frame.pix
-    n = pix.shape[0]
     traced = 0
     while True:
         b0, b1 = next_block(counter, bounds)
-        if b0 >= n:
-            break
-        nb = b1 - b0
+        if b0 >= pix.shape[0]:
+            return traced
         keys = raygen.block_keys(pix, b0, b1, base)
-        albedo = frame.albedo[b0:b1]
-        # ---- the local colour ----
-        local = np.empty((nb, 3), np.float32)
-        if lit:
-            acc = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-            traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
-                                        frame.target, acc)
-            for j in range(nb):
-                for a in range(3):
-                    local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
-        else:
-            local[:] = albedo
-        # ---- mirror rays from the smooth points, their hits, and deeper mirrors ----
-        smooth, near = np.empty(nb, np.int64), np.empty(nb, np.int64)  # frame rows, block rows
-        m = 0
-        for j in range(nb):
-            if frame.roughness[b0 + j] < thr:
-                smooth[m], near[m] = b0 + j, j
-                m += 1
-        V, skeys = np.empty((m, 3), np.float32), np.empty(m, np.uint64)
-        for k in range(m):
-            p = pix[smooth[k]]
-            V[k, 0], V[k, 1], V[k, 2] = frame.view_dir[p, 0], frame.view_dir[p, 1], frame.view_dir[p, 2]
-            skeys[k] = keys[near[k]]
-        refl = np.zeros((m, 3), np.float32)
+        local = np.empty((b1 - b0, 3), np.float32)
+        traced += _local(scene, frame, b0, b1, keys, lit, ggx, local)
+        smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
+        refl = np.zeros((near.shape[0], 3), np.float32)
         hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-            scene, frame, frame.p, frame.n, frame.ng, V, smooth[:m], skeys, 4, lit, ggx, refl)
+            scene, frame, frame.p, frame.n, frame.ng, V, smooth, skeys, 4, lit, ggx, refl)
         traced += t
         if depth > 1:
             traced += _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d,
                               hits, hkeys, colour)
-        for i in range(hits.shape[0]):
-            for a in range(3):
-                refl[hits[i], a] = colour[i, a]
-        # ---- Fresnel's blend, and the pixels ----
-        reflection = np.zeros((nb, 4), np.float32)
-        gather.blend_mirror(local, near[:m], np.zeros((nb, 3), np.float32), albedo, frame.metallic[b0:b1],
-                            frame.n[b0:b1], V, refl, reflection, ggx and lit)
+        reflection = _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx)
         if glossy and ggx and lit:
-            traced += _glossy(scene, frame, pix, b0, nb, keys, thr, local)
-        local += frame.emissive[b0:b1]
-        gather.put_rows(frame.out, pix[b0:b1], local)
-        gather.put_rows(frame.aux, pix[b0:b1], reflection)
-        gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
+            traced += _glossy(scene, frame, pix, b0, b1 - b0, keys, thr, local)
+        _write(frame, b0, b1, local, reflection)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def reflections_one(counter, bounds, scene, frame, base, thr, lit, ggx):
+    """reflections_frame with one mirror and no glossy lobe (the defaults), a kernel of its own
+    so that it compiles without _deeper and _glossy (issue 44)."""
+    pix = frame.pix
+    traced = 0
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= pix.shape[0]:
+            return traced
+        keys = raygen.block_keys(pix, b0, b1, base)
+        local = np.empty((b1 - b0, 3), np.float32)
+        traced += _local(scene, frame, b0, b1, keys, lit, ggx, local)
+        smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
+        refl = np.zeros((near.shape[0], 3), np.float32)
+        hits, _, _, _, _, _, _, _, _, colour, _, t = _mirror_hits(scene, frame, frame.p, frame.n, frame.ng, V, smooth,
+                                                                  skeys, 4, lit, ggx, refl)
+        traced += t
+        _write(frame, b0, b1, local, _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx))
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _local(scene, frame, b0, b1, keys, lit, ggx, local):
+    """The local colour of points b0..b1 into local (lit: one chosen light, shadowed; else the
+    albedo, as the study); returns the rays traced."""
+    albedo = frame.albedo[b0:b1]
+    if not lit:
+        local[:] = albedo
+        return 0
+    acc = brdf.accumulator(ggx, frame.view_dir, frame.pix[b0:b1], frame.roughness[b0:b1])
+    traced = raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, acc)
+    for j in range(b1 - b0):
+        for a in range(3):
+            local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
     return traced
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _smooth_points(frame, b0, b1, keys, thr):
+    """The points of b0..b1 smoother than thr, which trace a mirror ray: their frame rows, block
+    rows, view directions and keys."""
+    nb = b1 - b0
+    smooth, near = np.empty(nb, np.int64), np.empty(nb, np.int64)
+    m = 0
+    for j in range(nb):
+        if frame.roughness[b0 + j] < thr:
+            smooth[m], near[m] = b0 + j, j
+            m += 1
+    V, skeys = np.empty((m, 3), np.float32), np.empty(m, np.uint64)
+    for k in range(m):
+        p = frame.pix[smooth[k]]
+        V[k, 0], V[k, 1], V[k, 2] = frame.view_dir[p, 0], frame.view_dir[p, 1], frame.view_dir[p, 2]
+        skeys[k] = keys[near[k]]
+    return smooth[:m], near[:m], V, skeys
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx):
+    """Fresnel's blend of the mirrors' colours (refl: the environment where a ray missed, the hits'
+    colours put in here) into local (ggx and lit: glTF's BRDF, brdf.py, whose direct light has its
+    own Fresnel split: the reflection is added, F x it); returns the reflection (RGBA)."""
+    for i in range(hits.shape[0]):
+        for a in range(3):
+            refl[hits[i], a] = colour[i, a]
+    nb = b1 - b0
+    reflection = np.zeros((nb, 4), np.float32)
+    gather.blend_mirror(local, near, np.zeros((nb, 3), np.float32), frame.albedo[b0:b1], frame.metallic[b0:b1],
+                        frame.n[b0:b1], V, refl, reflection, ggx and lit)
+    return reflection
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _write(frame, b0, b1, local, reflection):
+    """The block's pixels (local colour plus emission), its reflection into frame.aux, and the
+    uncovered pixels around it."""
+    pix = frame.pix
+    local += frame.emissive[b0:b1]
+    gather.put_rows(frame.out, pix[b0:b1], local)
+    gather.put_rows(frame.aux, pix[b0:b1], reflection)
+    gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
 
 
 def trace(rf) -> dict:
     """The reflections pass over the frame's G-buffer (one compiled call): radiance, and
     rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
     out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
-    rf.tracer.rays_traced += rf.tracer.run_parallel(
-        reflections_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, reflection_image),
-        rf.key_base(3),
-        np.float32(rf.options.get("reflections.roughness_threshold")), rf.options.get("reflections.lit"),
-        rf.options.get("reflections.max_depth"), rf.ggx, rf.options.get("reflections.glossy"))
+    get = rf.options.get
+    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(3),
+            np.float32(get("reflections.roughness_threshold")), get("reflections.lit"))
+    if get("reflections.max_depth") > 1 or get("reflections.glossy"):
+        kernel, args = reflections_frame, (*args, get("reflections.max_depth"), rf.ggx, get("reflections.glossy"))
+    else:
+        kernel, args = reflections_one, (*args, rf.ggx)
+    rf.tracer.rays_traced += rf.tracer.run_parallel(kernel, len(rf.gb.index), *args)
     return rf.outputs(out, rt_reflection=reflection_image)
