@@ -12,7 +12,7 @@ from core.errors import DeviceError, UserError
 from rt.backend import AUX_CHANNEL, Backend, FrameInputs
 from rt.environment import env_args
 from rt.slang.device import open_device
-from rt.slang.pipeline import Pipeline
+from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
 
 EFFECTS = ("ao", "shadows", "gi", "reflections", "reference")
@@ -215,16 +215,18 @@ class SlangBackend(Backend):
             return
         pipeline = self._pipeline("primary", "primary.slang", "primary_rays", ("primary_miss",), "primary_hit")
 
-        def bind(c):
+        def static(c):
             self.scene.bind_trace(c)
             self._bind_gbuffer(c["g_gbuffer"])
             c["g_width"], c["g_height"] = w, h
+
+        def bind(c):
             c["g_eye"] = np.asarray(cam.eye, np.float32)
             c["g_right"], c["g_up"], c["g_forward"] = right, up, forward
             c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
             c["g_jitter"] = np.asarray(inputs.jitter, np.float32)
 
-        self._timers = {"primary": pipeline.dispatch(self._encoding(), w, h, bind)}
+        self._timers = {"primary": pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key())}
         self._counted += w * h
         self._submit()  # the device traces the primary rays while the host records the effects
 
@@ -255,9 +257,13 @@ class SlangBackend(Backend):
         """Dispatch the compute kernel `name` of shaders/rt/<name>.slang (entry point `name`,
         compiled once) over w x h threads, recorded with the frame's other work."""
         if name not in self._pipelines:
-            self._pipelines[name] = self.device.create_compute_kernel(
-                self.device.load_program(f"{name}.slang", [name]))
-        self._pipelines[name].dispatch(thread_count=[w, h, 1], command_encoder=self._encoding(), vars=variables)
+            self._pipelines[name] = ComputePipeline(self.device, name)
+        self._pipelines[name].dispatch(self._encoding(), w, h, variables)
+
+    def _static_key(self, *buffers) -> tuple:
+        """What a pipeline's static fields depend on: the scene, the G-buffer's and the given
+        buffers (new ones after a resize), the ray log, the width."""
+        return (self.scene, *self.gbuffer.values(), *buffers, self._counter, self._recording, self.inputs.width)
 
     def _bind_gbuffer(self, cursor) -> None:
         for name, buf in self.gbuffer.items():
@@ -308,24 +314,27 @@ class SlangBackend(Backend):
         pipeline = self._pipeline(effect, file, raygen, MISSES, "closest")
         values = self._options(effect, inputs.options)
 
-        def bind(c):
+        def static(c):  # what stays the same from frame to frame: written when it changes
             self.scene.bind_trace(c)
             self._bind_gbuffer(c["g_gbuffer"])
             self._bind_log(c)
             if effect != "ao":
                 self.scene.bind_lights(c["g_lights"])
                 c["g_far"] = float(self.scene.arrays.far)
-                c["g_ggx"] = int(self.scene.arrays.scene.uses_ggx(inputs.options.get("brdf")))
             c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
-            self._counter_stale = True
-            self._environment(c["g_env"])
             c["g_width"] = w
+
+        def bind(c):
+            if effect != "ao":
+                c["g_ggx"] = int(self.scene.arrays.scene.uses_ggx(inputs.options.get("brdf")))
+            self._environment(c["g_env"])
             c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, stream)), np.uint32)
             c["g_write_aux"] = int(aux_name in channels)
             for name, value in values.items():
                 c[name] = value
 
-        self._timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind)
+        self._counter_stale = True
+        self._timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(out, aux))
         self._encoding().copy_buffer(self._counter_host, 0, self._counter, 0, 4)  # read by rays_traced
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}

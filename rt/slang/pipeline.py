@@ -1,5 +1,27 @@
-"""A ray-tracing pipeline of one shader file (shaders/rt/), dispatched over the image."""
+"""Pipelines of shaders/rt/: a ray-tracing pipeline of one shader file, or one compute kernel,
+dispatched over the image. Each keeps its root shader object from frame to frame: what a
+dispatch binds that stays the same between frames (the scene, the G-buffer, the output buffers)
+is written into it only when it changes (dispatch's `static` and `key`), since each write is a
+call into slangpy and a frame's dispatches bind ~75 fields (issue 36)."""
 from __future__ import annotations
+
+
+class _Root:
+    """A program's root shader object, kept between dispatches, its cursor, and the key of what
+    its static fields were last written for."""
+
+    def __init__(self, device, program):
+        import slangpy as spy
+
+        self.object = device.create_root_shader_object(program)
+        self.cursor = spy.ShaderCursor(self.object)
+        self.key = None
+
+    def bind(self, bind, static, key) -> None:
+        if static is not None and (self.key is None or self.key != key):
+            static(self.cursor)
+            self.key = key
+        bind(self.cursor)
 
 
 class Pipeline:
@@ -25,17 +47,19 @@ class Pipeline:
         self.table = device.create_shader_table(program=self.program, ray_gen_entry_points=[raygen],
                                                 miss_entry_points=list(misses),
                                                 hit_group_names=["hit"] if closest_hit else [])
+        self.root = _Root(device, self.program)
 
-    def dispatch(self, encoder, width: int, height: int, bind):
-        """bind(cursor) sets the shader's globals; then one ray generation per pixel, recorded in
-        encoder (the backend submits it). Returns a function that gives the dispatch's GPU time
-        in ms, to be called once the device has done the work (the backend's wait)."""
-        import slangpy as spy
-
+    def dispatch(self, encoder, width: int, height: int, bind, static=None, key=None):
+        """bind(cursor) sets the shader's globals that change from frame to frame, static(cursor)
+        the others, when key (a tuple of what they depend on) differs from the last dispatch's;
+        then one ray generation per pixel, recorded in encoder (the backend submits it). Returns a
+        function that gives the dispatch's GPU time in ms, to be called once the device has done
+        the work (the backend's wait)."""
+        self.root.bind(bind, static, key)
         self.timer.reset()
         encoder.write_timestamp(self.timer, 0)
         with encoder.begin_ray_tracing_pass() as rt_pass:
-            bind(spy.ShaderCursor(rt_pass.bind_pipeline(self.pipeline, self.table)))
+            rt_pass.bind_pipeline(self.pipeline, self.table, self.root.object)
             rt_pass.dispatch_rays(0, [width, height, 1])
         encoder.write_timestamp(self.timer, 1)
         return self.elapsed
@@ -45,3 +69,21 @@ class Pipeline:
         the timestamps themselves)."""
         t0, t1 = self.timer.get_timestamp_results(0, 2)
         return (t1 - t0) * 1e3
+
+
+class ComputePipeline:
+    """The compute kernel `name` of shaders/rt/<name>.slang (entry point `name`)."""
+
+    def __init__(self, device, name: str):
+        program = device.load_program(f"{name}.slang", [name])
+        self.pipeline = device.create_compute_pipeline(program)
+        self.root = _Root(device, program)
+
+    def dispatch(self, encoder, width: int, height: int, values: dict) -> None:
+        """values: the kernel's globals by name; one thread per pixel, recorded in encoder."""
+        cursor = self.root.cursor
+        for name, value in values.items():
+            cursor[name] = value
+        with encoder.begin_compute_pass() as compute_pass:
+            compute_pass.bind_pipeline(self.pipeline, self.root.object)
+            compute_pass.dispatch([width, height, 1])
