@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from app.raster.channel_view import CHANNEL_VIEWS
+from rt.effects import EFFECTS
 from rt.hybrid import EFFECTS as HYBRID_EFFECTS
 
 
@@ -23,7 +24,7 @@ RT_PRIMARY = (("gbuffer", "rt"),)
 # the front of a ray-traced mode: the raster G-buffer read back, or primary rays on the backend
 RT_FRONT = (Node("gbuffer", RASTER), Node("gbuffer_pack", RASTER), Node("primary"))
 FORWARD = (Node("shadow_maps"), Node("ssao"), Node("forward"))
-EFFECT_MODES = ("shadows", "reflections", "gi", "ao", "reference")
+EFFECT_MODES = EFFECTS  # each effect alone, on the G-buffer (rt/effects.py)
 SVGF, OIDN, REPROJECT = (("denoise", "svgf"),), (("denoise", "oidn"),), (("reproject", True),)
 # the denoisers and the reprojection read the raster G-buffer: rasterised for them where the
 # rays make their own primary hits

@@ -22,3 +22,4 @@ class AOPass(RtPass):
     name = "ao"
     options = AOOptions
     writes = ("radiance", "rt_ao")
+    stream = 2

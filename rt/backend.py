@@ -13,10 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-EFFECTS = ("shadows", "reflections", "gi", "ao", "reference")
-
-# the image each effect makes besides radiance (rt/<effect>.py: the pass's writes)
-AUX_CHANNEL = {"shadows": "rt_direct", "reflections": "rt_reflection", "gi": "rt_indirect", "ao": "rt_ao"}
+from rt.effects import AUX_CHANNEL, EFFECTS  # noqa: F401  (the backends' names for them)
 
 
 @dataclass

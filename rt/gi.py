@@ -24,3 +24,5 @@ class GIPass(RtPass):
     name = "gi"
     options = GIOptions
     writes = ("radiance", "rt_indirect")
+    stream = 4
+    aux_channels = 3

@@ -6,8 +6,20 @@ from core.passes import Pass
 
 
 class RtPass(Pass):
+    """A ray-traced effect, and its record (rt/effects.py collects them): name, options, writes
+    ("radiance" and its own image, the aux channel, where it has one), and what the backends
+    take from here rather than from tables of their own: its random stream (rt/keys.key_base;
+    each effect draws its own numbers, the same on every backend) and its own image's channels."""
+
     device = "rt"
     reads = ("gbuffer",)
+    stream = 0  # its random stream: every effect's differs
+    aux_channels = 1  # channels of its own image (or of the unused one, where it has none)
+
+    @classmethod
+    def aux(cls) -> str | None:
+        """Its own image's channel: what it writes besides radiance."""
+        return next((c for c in cls.writes if c != "radiance"), None)
 
     def execute(self, frame) -> None:
         wanted = tuple(c for c in self.writes if c in frame.wanted)

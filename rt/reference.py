@@ -31,3 +31,4 @@ class ReferencePass(RtPass):
     options = ReferenceOptions
     option_groups = ("reflections",)  # reflections.roughness_threshold: what reflects
     writes = ("radiance",)
+    stream = 5

@@ -26,3 +26,5 @@ class ReflectionsPass(RtPass):
     name = "reflections"
     options = ReflectionsOptions
     writes = ("radiance", "rt_reflection")
+    stream = 3
+    aux_channels = 4

@@ -22,3 +22,5 @@ class ShadowsPass(RtPass):
     name = "shadows"
     options = ShadowsOptions
     writes = ("radiance", "rt_direct")
+    stream = 1
+    aux_channels = 3

@@ -94,3 +94,18 @@ def test_every_option_is_in_the_panel_of_some_mode():
     shown = set(frame_wide_keys(opts)) | {k for mode in ALL for k in option_keys_for(opts, mode)}
     assert set(opts.keys()) - shown == set()
     assert {"jitter", "reproject", "denoise"} <= set(frame_wide_keys(opts))
+
+
+def test_each_effect_is_one_record_that_both_backends_read():
+    """An effect's random stream and own image are declared once, on its pass (rt/effects.py):
+    the streams differ (two effects drawing the same numbers would correlate their noise), the
+    aux channel is what the pass writes besides radiance, and both backends trace exactly the
+    effects declared."""
+    from rt.effects import AUX_CHANNEL, EFFECTS, PASSES, STREAM
+    from rt.embree.backend import TRACE
+    from rt.slang.backend import SHADERS
+
+    assert len(set(STREAM.values())) == len(EFFECTS) and 0 not in STREAM.values()
+    for name, p in PASSES.items():
+        assert p.name == name and set(p.writes) == {"radiance"} | ({AUX_CHANNEL[name]} if name in AUX_CHANNEL else set())
+    assert set(TRACE) == set(SHADERS) == set(EFFECTS)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rt.effects import STREAM
 from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
@@ -127,6 +128,7 @@ def trace(rf) -> dict:
     incoming indirect radiance, albedo x which is the outgoing) when asked."""
     out, indirect_image = rf.frame_outputs(name="rt_indirect")
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        gi_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, indirect_image), rf.key_base(4),
-        rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"), rf.options.get("gi.shadows"), rf.ggx)
+        gi_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, indirect_image),
+        rf.key_base(STREAM["gi"]), rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"),
+        rf.options.get("gi.shadows"), rf.ggx)
     return rf.outputs(out, rt_indirect=indirect_image)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rt.effects import STREAM
 from rt.embree import brdf
 from rt.embree.kernels import uniforms
 from rt.embree.shading import (
@@ -151,5 +152,5 @@ def trace(rf) -> dict:
     else:
         def paths(cf):
             return trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr, mis)
-    rf.for_chunks(lambda cf: cf.put(out, paths(cf)), streams=(5,))
+    rf.for_chunks(lambda cf: cf.put(out, paths(cf)), streams=(STREAM["reference"],))
     return {"radiance": out}

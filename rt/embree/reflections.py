@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rt.effects import STREAM
 from rt.embree import brdf, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
@@ -264,7 +265,7 @@ def trace(rf) -> dict:
     rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
     out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
     get = rf.options.get
-    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(3),
+    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(STREAM["reflections"]),
             np.float32(get("reflections.roughness_threshold")), get("reflections.lit"))
     if get("reflections.max_depth") > 1 or get("reflections.glossy"):
         kernel, args = reflections_frame, (*args, get("reflections.max_depth"), rf.ggx, get("reflections.glossy"))

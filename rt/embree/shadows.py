@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rt.effects import STREAM
 from rt.embree import brdf, gather, raygen
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block
@@ -63,6 +64,6 @@ def trace(rf) -> dict:
     out, direct = rf.frame_outputs(name="rt_direct")
     kernel = shadows_one if rf.options.get("shadows.lights") == "one" else shadows_all
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        kernel, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, direct), rf.key_base(1),
+        kernel, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, direct), rf.key_base(STREAM["shadows"]),
         rf.options.get("shadows.greyscale"), rf.ggx)
     return rf.outputs(out, rt_direct=direct)

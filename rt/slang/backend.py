@@ -9,23 +9,25 @@ import functools
 import numpy as np
 
 from core.errors import DeviceError, UserError
-from rt.backend import AUX_CHANNEL, Backend, FrameInputs
+from rt.backend import Backend, FrameInputs
+from rt.effects import AUX_CHANNEL, AUX_CHANNELS, STREAM
+from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args
 from rt.slang.device import open_device
 from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
 
-EFFECTS = ("ao", "shadows", "gi", "reflections", "reference")
 MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 and 1, and its closest hit
-# effect: its shader file and ray-generation entry point, its random stream (the Embree backend's:
-# RtFrame.key_base) and the channels of its own image
+# effect: its shader file and ray-generation entry point (its random stream and its own image's
+# channels come from its record: rt/effects.py)
 SHADERS = {
-    "ao": ("ao.slang", "ao_rays", 2, 1),
-    "shadows": ("shadows.slang", "shadow_rays", 1, 3),
-    "gi": ("gi.slang", "gi_rays", 4, 3),
-    "reflections": ("reflections.slang", "reflection_rays", 3, 4),
-    "reference": ("reference.slang", "reference_rays", 5, 1),
+    "ao": ("ao.slang", "ao_rays"),
+    "shadows": ("shadows.slang", "shadow_rays"),
+    "gi": ("gi.slang", "gi_rays"),
+    "reflections": ("reflections.slang", "reflection_rays"),
+    "reference": ("reference.slang", "reference_rays"),
 }
+EFFECTS = tuple(e for e in ALL_EFFECTS if e in SHADERS)
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
@@ -307,7 +309,8 @@ class SlangBackend(Backend):
 
         inputs = self.inputs
         w, h = inputs.width, inputs.height
-        file, raygen, stream, aux_channels = SHADERS[effect]
+        file, raygen = SHADERS[effect]
+        stream, aux_channels = STREAM[effect], AUX_CHANNELS[effect]
         aux_name = AUX_CHANNEL.get(effect, "unused")
         out = self._buffer("radiance", w * h * 3, 4)
         aux = self._buffer(aux_name, w * h * aux_channels, 4)
