@@ -29,12 +29,12 @@ FAMILIES = (
 )
 # --software-gpu: every pipeline of a software Vulkan device (lavapipe: up to a minute each on a
 # CPU; Mesa caches them on disk), in two processes of their own beside the kernels' (the test
-# suite's workers would otherwise each compile them)
+# suite's workers would otherwise each compile them). Not hybrid: its device pipelines are these,
+# and its Embree kernels are the kernels' processes' to compile
 SOFTWARE_FAMILIES = (
     (("vulkan:reference", "reference", ["tracer=vulkan"]),),
     (("vulkan:reflections", "reflections", ["tracer=vulkan"]), ("vulkan:gi", "gi", ["tracer=vulkan"]),
      ("vulkan:ao", "ao", ["tracer=vulkan"]), ("vulkan:shadows", "shadows", ["tracer=vulkan"]),
-     ("vulkan:hybrid", "hybrid", ["tracer=vulkan", "hybrid.gi=true", "hybrid.reflections=true"]),
      ("vulkan:gbuffer=rt", "normal", ["tracer=vulkan", "gbuffer=rt"])),
 )
 VARIANTS = tuple(v for family in FAMILIES + SOFTWARE_FAMILIES for v in family)

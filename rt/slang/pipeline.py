@@ -24,29 +24,56 @@ class _Root:
         bind(self.cursor)
 
 
+# (device, shader file, entry points) -> what linking and creating a pipeline made: a process
+# makes each pipeline once, however many backends (renderers) it opens on the device; lavapipe
+# takes up to a minute a pipeline, and Mesa's disk cache does not always spare it
+_COMPILED: dict[tuple, tuple] = {}
+
+
+def _ray_tracing(device, file: str, raygen: str, misses: tuple[str, ...], closest_hit: str | None) -> tuple:
+    import slangpy as spy
+
+    key = (id(device), file, raygen, misses, closest_hit)
+    if key in _COMPILED:
+        return _COMPILED[key][1:]
+    entry_points = [raygen, *misses] + ([closest_hit] if closest_hit else [])
+    # entry points live in the effect's file or in trace.slang (the misses and the closest hit)
+    modules = [device.load_module(file)] + ([device.load_module("trace.slang")] if file != "trace.slang" else [])
+
+    def entry(name: str):
+        for module in modules:
+            if name in [e.name for e in module.entry_points]:
+                return module.entry_point(name)
+        raise RuntimeError(f"no entry point {name} in {file} or trace.slang")
+
+    program = device.link_program(modules=modules, entry_points=[entry(e) for e in entry_points])
+    groups = [spy.HitGroupDesc(hit_group_name="hit", closest_hit_entry_point=closest_hit)] if closest_hit else []
+    pipeline = device.create_ray_tracing_pipeline(program=program, hit_groups=groups, max_recursion=1,
+                                                  max_ray_payload_size=32, max_attribute_size=8)
+    table = device.create_shader_table(program=program, ray_gen_entry_points=[raygen], miss_entry_points=list(misses),
+                                       hit_group_names=["hit"] if closest_hit else [])
+    _COMPILED[key] = (device, program, pipeline, table)  # the device kept alive with its pipelines
+    return program, pipeline, table
+
+
+def _compute(device, name: str) -> tuple:
+    key = (id(device), name)
+    if key not in _COMPILED:
+        program = device.load_program(f"{name}.slang", [name])
+        _COMPILED[key] = (device, program, device.create_compute_pipeline(program))
+    return _COMPILED[key][1:]
+
+
 class Pipeline:
+    """A ray-tracing pipeline (made once a process: _ray_tracing), with this backend's root
+    object and timestamps."""
+
     def __init__(self, device, file: str, raygen: str, misses: tuple[str, ...], closest_hit: str | None = None):
         import slangpy as spy
 
-        entry_points = [raygen, *misses] + ([closest_hit] if closest_hit else [])
         self.device = device
-        # entry points live in the effect's file or in trace.slang (the misses and the closest hit)
-        modules = [device.load_module(file)] + ([device.load_module("trace.slang")] if file != "trace.slang" else [])
-
-        def entry(name: str):
-            for module in modules:
-                if name in [e.name for e in module.entry_points]:
-                    return module.entry_point(name)
-            raise RuntimeError(f"no entry point {name} in {file} or trace.slang")
-
-        self.program = device.link_program(modules=modules, entry_points=[entry(e) for e in entry_points])
-        groups = [spy.HitGroupDesc(hit_group_name="hit", closest_hit_entry_point=closest_hit)] if closest_hit else []
-        self.pipeline = device.create_ray_tracing_pipeline(program=self.program, hit_groups=groups, max_recursion=1,
-                                                           max_ray_payload_size=32, max_attribute_size=8)
+        self.program, self.pipeline, self.table = _ray_tracing(device, file, raygen, tuple(misses), closest_hit)
         self.timer = device.create_query_pool(type=spy.QueryType.timestamp, count=2)
-        self.table = device.create_shader_table(program=self.program, ray_gen_entry_points=[raygen],
-                                                miss_entry_points=list(misses),
-                                                hit_group_names=["hit"] if closest_hit else [])
         self.root = _Root(device, self.program)
 
     def dispatch(self, encoder, width: int, height: int, bind, static=None, key=None):
@@ -75,8 +102,7 @@ class ComputePipeline:
     """The compute kernel `name` of shaders/rt/<name>.slang (entry point `name`)."""
 
     def __init__(self, device, name: str):
-        program = device.load_program(f"{name}.slang", [name])
-        self.pipeline = device.create_compute_pipeline(program)
+        program, self.pipeline = _compute(device, name)
         self.root = _Root(device, program)
 
     def dispatch(self, encoder, width: int, height: int, values: dict) -> None:
