@@ -264,8 +264,9 @@ class SlangBackend(Backend):
 
     def _static_key(self, *buffers) -> tuple:
         """What a pipeline's static fields depend on: the scene, the G-buffer's and the given
-        buffers (new ones after a resize), the ray log, the width."""
-        return (self.scene, *self.gbuffer.values(), *buffers, self._counter, self._recording, self.inputs.width)
+        buffers (new ones after a resize), the ray log, the image's size."""
+        return (self.scene, *self.gbuffer.values(), *buffers, self._counter, self._recording, self.inputs.width,
+                self.inputs.height)
 
     def _bind_gbuffer(self, cursor) -> None:
         for name, buf in self.gbuffer.items():

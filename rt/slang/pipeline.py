@@ -1,8 +1,8 @@
 """Pipelines of shaders/rt/: a ray-tracing pipeline of one shader file, or one compute kernel,
 dispatched over the image. Each keeps its root shader object from frame to frame: what a
 dispatch binds that stays the same between frames (the scene, the G-buffer, the output buffers)
-is written into it only when it changes (dispatch's `static` and `key`), since each write is a
-call into slangpy and a frame's dispatches bind ~75 fields (issue 36)."""
+is written into it only when it changes (dispatch's `static` and `key`): each write is a call
+into slangpy, and most of a frame's fields are those."""
 from __future__ import annotations
 
 
