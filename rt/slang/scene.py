@@ -127,6 +127,8 @@ class DeviceScene:
         cursor["corner_rows"] = self.corner_rows
         cursor["colors"] = self.colors
         cursor["has_colors"] = self.has_colors
+        cursor["vertices"] = self.vertices
+        cursor["indices"] = self.indices
 
     def bind_trace(self, cursor) -> None:
         """What trace.slang's rays need: the scene, its mesh (masked materials' alpha) and
