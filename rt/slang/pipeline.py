@@ -18,7 +18,7 @@ class _Root:
         self.key = None
 
     def bind(self, bind, static, key) -> None:
-        if static is not None and (self.key is None or self.key != key):
+        if static is not None and self.key != key:
             static(self.cursor)
             self.key = key
         bind(self.cursor)
