@@ -1,5 +1,6 @@
 """Window checks for tests/test_viewer.py, each run in its own interpreter:
 python -m tests.window_checks NAME (exit status 0 = pass)."""
+import re
 import subprocess
 import sys
 import tempfile
@@ -256,13 +257,17 @@ def test_cold_start_compiles_in_the_background():
             else:
                 os.environ["NUMBA_CACHE_DIR"] = old
         try:
-            assert v.warmup is not None and v.warmup.running
+            warmup = v.warmup  # the viewer drops it when the compile ends
+            assert warmup is not None and warmup.running
             deadline = time.time() + 120
-            while "warmup" not in v.warmup.status and "1/" not in v.warmup.status and time.time() < deadline:
+            progress = re.compile(r"compiling ray-tracing kernels in the background: \d+/\d+: ")
+            while not progress.search(warmup.status) and warmup.running and time.time() < deadline:
                 v.frame(0.016)
                 time.sleep(0.2)
-            assert "compiling ray-tracing kernels in the background: 1/" in v.warmup.status, v.warmup.status
-            process = v.warmup.process
+            # K/N: on many cores every family starts in the first second, so K may already be N
+            assert progress.search(warmup.status), \
+                (warmup.status, warmup.failed, warmup.process.poll())
+            process = warmup.process
         finally:
             v.close()
         assert process.poll() is not None, "the background compile outlived the window"
