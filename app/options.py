@@ -8,12 +8,12 @@ from dataclasses import dataclass
 
 from core.options import FALSE, GROUPS, TRUE, opt, register_group  # noqa: F401  (the old spelling)
 from rt.backends import CHOICES
-from scenes.model import Environment
+from scenes.loaders.envmap import parse_env
 
 
 def _check_env(text: str) -> None:
     if text != "scene":
-        Environment.parse(text)
+        parse_env(text)
 
 
 @dataclass
@@ -31,7 +31,8 @@ class GlobalOptions:
     gbuffer: str = opt("raster", "G-buffer source: raster (GPU) or rt (primary rays)", choices=("raster", "rt"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
     env: str = opt("scene", "radiance of rays that miss: scene (the file's; the studio for files with no "
-                     "lights), black, sky, studio or R,G,B", check=_check_env)
+                     "lights), black, sky, studio, R,G,B or an equirectangular map of linear radiance "
+                     "(.hdr or .exr file)", check=_check_env)
     brdf: str = opt("auto", "surface model: lambert (the study's: Lambert diffuse, mirror reflections), ggx "
                     "(glTF's metal-rough: Lambert + GGX specular) or auto (glTF files ggx, others lambert)",
                     choices=("auto", "lambert", "ggx"))
@@ -49,6 +50,7 @@ register_group("", GlobalOptions)
 @dataclass
 class EnvOptions:
     intensity: float = opt(1.0, "scale of the environment's radiance (option env), in every pass", 0.0, 1000.0)
+    rotation: float = opt(0.0, "turn of an environment map about the vertical axis (degrees)", -360.0, 360.0)
 
 
 register_group("env", EnvOptions)

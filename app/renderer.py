@@ -19,6 +19,7 @@ from app.raster.gpu_scene import GpuScene
 from app.raster.upload import Uploads, read_rgba
 from core.errors import DeviceError, UserError
 from scenes.model import Environment
+from scenes.loaders.envmap import parse_env
 
 JITTERED_STILL_FRAMES = 64  # a still forward view stops re-rendering after this many jittered frames
 
@@ -187,12 +188,12 @@ class Renderer:
     def environment(self) -> Environment:
         """The radiance of missed rays: the scene's or option env's, scaled by env.intensity."""
         env = self.options.get("env")
-        found = self.scene.environment if env == "scene" else Environment.parse(env)
-        scale = float(self.options.get("env.intensity"))
-        if scale == 1.0:
+        found = self.scene.environment if env == "scene" else parse_env(env)
+        scale, turn = float(self.options.get("env.intensity")), float(self.options.get("env.rotation"))
+        if scale == 1.0 and turn == 0.0:
             return found
         return dataclasses.replace(found, color=tuple(float(c) * scale for c in found.color) if found.kind == "constant"
-                                   else found.color, strength=found.strength * scale)
+                                   else found.color, strength=found.strength * scale, rotation=found.rotation + turn)
 
     @property
     def frame_count(self) -> int:

@@ -193,14 +193,24 @@ class Viewer:
         self.panel.message = f"loaded {len(views)} bookmarks"
 
     def _dropped(self, window, paths) -> None:
-        """A file dropped on the window: the first scene file among them is opened."""
+        """A file dropped on the window: the first scene file among them is opened, or else the
+        first environment map lights the scene (option env)."""
         from scenes.loaders import EXTENSIONS
+        from scenes.loaders.envmap import SUFFIXES
 
         scenes = [p for p in paths if Path(p).suffix.lower() in EXTENSIONS]
+        maps = [p for p in paths if Path(p).suffix.lower() in SUFFIXES]
         if scenes:
             self.request_scene(scenes[0])
+        elif maps:
+            try:
+                self.options.set("env", maps[0])
+                self.panel.message, self.panel.error = f"environment: {Path(maps[0]).name}", ""
+            except UserError as e:
+                self.panel.error = str(e)
         else:
-            self.panel.error = f"not a scene file ({', '.join(EXTENSIONS)}): {', '.join(paths)[:200]}"
+            self.panel.error = (f"not a scene file ({', '.join(EXTENSIONS)}) or an environment map "
+                                f"({', '.join(SUFFIXES)}): {', '.join(paths)[:200]}")
 
     def screenshot(self, path: str | None = None) -> str:
         """The window as a PNG (and the linear image as .npy): at `path`, or (F12) a new file in

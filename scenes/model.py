@@ -93,18 +93,27 @@ class View:
         return f"eye={f(self.eye)};target={f(self.target)};up={f(self.up)};fov={self.fov:.4g}"
 
 
-ENV_KINDS = ("black", "sky", "studio", "constant")
+ENV_KINDS = ("black", "sky", "studio", "constant", "map")
 
 
 @dataclass
 class Environment:
     """Radiance returned by rays that miss. 'sky' is a simple analytic gradient; 'studio' a
     neutral grey one (a bright ceiling, a mid-grey horizon, a dark floor) that lights scene
-    files with no lights of their own (scenes.loaders.load_scene)."""
+    files with no lights of their own (scenes.loaders.load_scene); 'map' an equirectangular
+    image of linear radiance (scenes/loaders/envmap.py), turned `rotation` degrees about +Y."""
 
     kind: str = "black"
     color: tuple = (0.0, 0.0, 0.0)  # for "constant"; zenith tint scale for "sky"
     strength: float = 1.0
+    pixels: np.ndarray | None = field(default=None, repr=False, compare=False)  # "map": (H, W, 3) float32
+    rotation: float = 0.0  # "map": degrees about +Y
+    source: str = ""  # "map": the file it came from
+
+    @property
+    def rotation_u(self) -> float:
+        """The rotation as a shift of the map's u coordinate (equirect_uv)."""
+        return float(self.rotation) / 360.0 % 1.0
 
     def radiance(self, dirs: np.ndarray) -> np.ndarray:
         """Radiance (N,3) float32 for unit directions (N,3)."""
@@ -113,11 +122,14 @@ class Environment:
             return np.zeros((n, 3), np.float32)
         if self.kind == "constant":
             return np.broadcast_to(np.asarray(self.color, np.float32), (n, 3)).copy()
+        if self.kind == "map":
+            return equirect_lookup(self.pixels, dirs, self.rotation_u) * np.float32(self.strength)
         y = np.clip(dirs[:, 1:2], -1.0, 1.0)
         return sky_radiance(y, *GRADIENTS[self.kind]) * np.float32(self.strength)
 
     @staticmethod
     def parse(text: str) -> Environment:
+        """A named environment or R,G,B (a map file: scenes/loaders/envmap.py parse_env)."""
         t = text.strip().lower()
         if t in ("black", "sky", "studio"):
             return Environment(t)
@@ -127,10 +139,13 @@ class Environment:
         except ValueError:
             rgb = ()
         if len(rgb) != 3 or not all(np.isfinite(rgb)) or min(rgb) < 0:
-            raise UserError(f"env: expected black, sky, studio or R,G,B with non-negative numbers, got {text!r}")
+            raise UserError(f"env: expected black, sky, studio, R,G,B with non-negative numbers or an .hdr/.exr "
+                            f"file, got {text!r}")
         return Environment("constant", rgb)
 
     def to_string(self) -> str:
+        if self.kind == "map":
+            return self.source
         if self.kind == "constant":
             return ",".join(f"{c:g}" for c in self.color)
         return self.kind
@@ -146,6 +161,32 @@ STUDIO_GROUND = np.array([0.15, 0.15, 0.15], np.float32)
 # kind: its (horizon, zenith, ground); the same gradient in every backend (shaders/common.glsl,
 # rt/environment.py)
 GRADIENTS = {"sky": (SKY_HORIZON, SKY_ZENITH, SKY_GROUND), "studio": (STUDIO_HORIZON, STUDIO_ZENITH, STUDIO_GROUND)}
+
+
+def equirect_uv(dirs: np.ndarray, rotation_u: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Where unit directions (N,3) fall on an equirectangular map, as Mitsuba 3's envmap reads
+    it: u = atan2(x, -z) / 2pi + rotation_u (mod 1; -Z at the left edge, turning towards +X),
+    v = acos(y) / pi (+Y at the top row). Every backend reads the map this way."""
+    u = np.arctan2(dirs[:, 0], -dirs[:, 2]) * (0.5 / np.pi) + rotation_u
+    return u - np.floor(u), np.arccos(np.clip(dirs[:, 1], -1.0, 1.0)) / np.pi
+
+
+def equirect_lookup(pixels: np.ndarray, dirs: np.ndarray, rotation_u: float = 0.0) -> np.ndarray:
+    """Bilinear radiance (N,3) of an equirectangular map (H,W,3) towards unit directions:
+    texel centres at (i + 0.5) / W, wrapping in u, clamped in v (as a GL texture with
+    repeat in s and clamp to edge in t)."""
+    h, w = pixels.shape[:2]
+    u, v = equirect_uv(dirs.astype(np.float64), rotation_u)
+    fx, fy = u * w - 0.5, v * h - 0.5
+    x0, y0 = np.floor(fx), np.floor(fy)
+    tx, ty = (fx - x0)[:, None], (fy - y0)[:, None]
+    ix0 = x0.astype(np.int64) % w
+    ix1 = (ix0 + 1) % w
+    iy0 = np.clip(y0.astype(np.int64), 0, h - 1)
+    iy1 = np.clip(y0.astype(np.int64) + 1, 0, h - 1)
+    top = pixels[iy0, ix0] * (1 - tx) + pixels[iy0, ix1] * tx
+    bottom = pixels[iy1, ix0] * (1 - tx) + pixels[iy1, ix1] * tx
+    return (top * (1 - ty) + bottom * ty).astype(np.float32)
 
 
 def sky_radiance(y: np.ndarray, horizon=SKY_HORIZON, zenith=SKY_ZENITH, ground=SKY_GROUND) -> np.ndarray:

@@ -139,7 +139,8 @@ const vec3 STUDIO_HORIZON = vec3(0.5);
 const vec3 STUDIO_ZENITH = vec3(1.0);
 const vec3 STUDIO_GROUND = vec3(0.15);
 
-// env_kind: 0 black, 1 sky, 2 constant, 3 studio (scenes/model.py: GRADIENTS)
+// env_kind: 0 black, 1 sky, 2 constant, 3 studio (scenes/model.py: GRADIENTS); 4, a map, is read
+// where its texture is bound (background.frag; forward.frag through its cube maps)
 vec3 env_radiance(int env_kind, vec3 env_color, float env_strength, vec3 dir) {
     if (env_kind == 0) return vec3(0.0);
     if (env_kind == 2) return env_color;

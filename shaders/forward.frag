@@ -30,6 +30,8 @@ uniform float env_strength;
 uniform vec3 ambient_radiance;     // the scene's ambient hint (engines' ambient light)
 uniform float ambient_scale;
 uniform sampler2D ambient_lut;     // env irradiance / pi vs normal.y, 64 x 1
+uniform samplerCube irradiance_cube;  // env irradiance / pi vs the normal (a map's: it varies with azimuth)
+uniform int use_irradiance_cube;
 uniform sampler2D ssao;
 uniform int use_ssao;
 uniform samplerCube env_cube;
@@ -151,7 +153,8 @@ void main() {
         direct += (use_ggx == 1 ? ggx_brdf(c_diff, f0, alpha, n, v, l) : brdf) * e * cos_theta * vis;
     }
     if (use_rt_direct == 1) direct = (use_ggx == 1 ? vec3(1.0) : brdf) * texelFetch(rt_direct, pixel, 0).rgb;
-    vec3 amb = texture(ambient_lut, vec2(n.y * 0.5 + 0.5, 0.5)).rgb + ambient_radiance;
+    vec3 amb = (use_irradiance_cube == 1 ? texture(irradiance_cube, n).rgb
+                                         : texture(ambient_lut, vec2(n.y * 0.5 + 0.5, 0.5)).rgb) + ambient_radiance;
     float occlusion = use_ssao == 1 ? texture(ssao, gl_FragCoord.xy / viewport).r : 1.0;
     if (use_rt_ao == 1) occlusion = texelFetch(rt_ao, pixel, 0).r;
     vec3 incoming = amb * ambient_scale * occlusion * m.occlusion;  // glTF occlusion: ambient only

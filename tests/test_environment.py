@@ -8,7 +8,7 @@ from scenes.model import SKY_GROUND, SKY_HORIZON, SKY_ZENITH, sky_radiance
 
 
 def _env(kind, color):
-    return kind, np.asarray(color, np.float32), SKY_HORIZON, SKY_ZENITH, SKY_GROUND
+    return kind, np.asarray(color, np.float32), SKY_HORIZON, SKY_ZENITH, SKY_GROUND, np.zeros((1, 1, 3), np.float32)
 
 
 def _dirs(n, seed=2):

@@ -64,6 +64,19 @@ def test_dropping_a_file_opens_it():
             v._dropped(v.window, [str(path)])
             v.frame(0.016)
             assert v.scene.name == "tri"
+            bad = Path(folder) / "broken.exr"  # an environment map: lights the scene, or says why not
+            bad.write_bytes(b"not an exr")
+            v._dropped(v.window, [str(bad)])
+            assert "not a readable OpenEXR" in v.panel.error and v.options.get("env") == "scene"
+            import OpenEXR
+
+            good = Path(folder) / "sky.exr"
+            OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                         {"RGB": np.full((8, 16, 3), 0.5, np.float32)}).write(str(good))
+            v._dropped(v.window, [str(good)])
+            v.frame(0.016)
+            assert v.options.get("env") == str(good) and not v.panel.error
+            assert v.renderer.environment().kind == "map"
     finally:
         v.close()
 

@@ -83,7 +83,9 @@ class ForwardLightingPass(Pass):
             set_uniform(prog, "env_strength", float(env.strength))
             set_uniform(prog, "ambient_radiance", tuple(map(float, frame.scene.ambient)))
             set_uniform(prog, "ambient_scale", float(opts.ambient))
-            textures = {"ambient_lut": lut, "env_cube": cube,
+            texels, irradiance = frame.gpu.environment_map(env)
+            set_uniform(prog, "use_irradiance_cube", int(irradiance is not None))
+            textures = {"ambient_lut": lut, "env_cube": cube, "irradiance_cube": irradiance or cube,
                         "ssao": frame.channels.get("ssao", self.dummy_ao) if use_ssao else self.dummy_ao,
                         "sun_shadow": frame.channels["sun_shadow"], "point_shadow": frame.channels["point_shadow"]}
             for name, tex in textures.items():
@@ -118,6 +120,11 @@ class ForwardLightingPass(Pass):
         set_uniform(prog, "env_kind", ENV_KIND[env.kind])
         set_uniform(prog, "env_color", tuple(map(float, env.color)))
         set_uniform(prog, "env_strength", float(env.strength))
+        texels, _ = frame.gpu.environment_map(env)
+        if texels is not None:
+            texels.use(0)
+            set_uniform(prog, "env_map", 0)
+            set_uniform(prog, "env_shift", env.rotation_u)
         vao.render(vertices=3)
 
     def release(self) -> None:

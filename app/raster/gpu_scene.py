@@ -11,7 +11,7 @@ MAT_TEXELS = 4
 TRI_TEX_WIDTH = 4096
 MAX_LIGHTS = 128
 KIND = {"point": 0, "spot": 1, "directional": 2, "proxy": 3}
-ENV_KIND = {"black": 0, "sky": 1, "constant": 2, "studio": 3}
+ENV_KIND = {"black": 0, "sky": 1, "constant": 2, "studio": 3, "map": 4}
 
 # GL cube map face directions for texel coordinates sc, tc in [-1, 1]
 CUBE_FACES = (
@@ -67,6 +67,28 @@ def ambient_lut(env: Environment, size: int = 64) -> np.ndarray:
     return out
 
 
+def cube_directions(size: int) -> np.ndarray:
+    """Unit directions (6 * size * size, 3) of a GL cube map's texel centres, face by face."""
+    t = (np.arange(size) + 0.5) / size * 2 - 1
+    s, tc = np.meshgrid(t, t)
+    d = np.concatenate([np.stack(face(s, tc), -1).reshape(-1, 3) for face in CUBE_FACES])
+    return (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+
+
+def irradiance_cube(env: Environment, size: int = 16, rows: int = 64) -> np.ndarray:
+    """Irradiance / pi of an environment towards the normals of a cube map's texels (no
+    occlusion): the cosine-weighted integral over a (rows x 2 rows) grid of directions, each
+    weighted by its solid angle, from the environment's own bilinear radiance."""
+    theta = (np.arange(rows) + 0.5) / rows * np.pi
+    phi = (np.arange(2 * rows) + 0.5) / (2 * rows) * 2 * np.pi
+    th, ph = np.meshgrid(theta, phi, indexing="ij")
+    dirs = np.stack([np.sin(th) * np.sin(ph), np.cos(th), -np.sin(th) * np.cos(ph)], -1).reshape(-1, 3)
+    d_omega = (np.sin(th) * (np.pi / rows) * (np.pi / rows)).reshape(-1)  # dtheta = dphi = pi / rows
+    radiance = env.radiance(dirs.astype(np.float32)).astype(np.float64) * d_omega[:, None]
+    normals = cube_directions(size).astype(np.float64)
+    return (np.maximum(normals @ dirs.T, 0.0) @ radiance / np.pi).astype(np.float32)
+
+
 class GpuScene:
     def __init__(self, ctx, scene: Scene):
         self.ctx = ctx
@@ -88,6 +110,7 @@ class GpuScene:
         self.env_key = None
         self.env_cube = None
         self.ambient_lut = None
+        self.env_map = self.env_irradiance = None  # a map's texels and irradiance (environment_map)
         self.proxies = emissive_proxy_lights(scene)
 
     def _upload_materials(self) -> None:
@@ -164,32 +187,42 @@ class GpuScene:
         return self._vaos[key]
 
     def environment_maps(self, env: Environment, size: int = 64):
-        """Cube map and ambient LUT of the environment, rebuilt only when it changes."""
-        key = (env.kind, tuple(env.color), env.strength)
+        """Cube map and ambient LUT of the environment, rebuilt only when it changes; for a map,
+        its irradiance cube (irradiance_cube) stands in for the LUT, and its texels are
+        environment_texture()."""
+        key = (env.kind, tuple(env.color), env.strength, id(env.pixels), env.rotation)
         if key != self.env_key:
-            t = (np.arange(size) + 0.5) / size * 2 - 1
-            s, tc = np.meshgrid(t, t)
-            faces = []
-            for face in CUBE_FACES:
-                d = np.stack(face(s, tc), -1).reshape(-1, 3)
-                d /= np.linalg.norm(d, axis=1, keepdims=True)
-                faces.append(env.radiance(d.astype(np.float32)))
-            data = np.concatenate(faces).astype("f4")
-            if self.env_cube is not None:
-                self.env_cube.release()
-                self.ambient_lut.release()
+            data = env.radiance(cube_directions(size)).astype("f4")
+            for obj in (self.env_cube, self.ambient_lut, self.env_map, self.env_irradiance):
+                if obj is not None:
+                    obj.release()
+            self.env_map = self.env_irradiance = None
             self.env_cube = self.ctx.texture_cube((size, size), 3, data.tobytes(), dtype="f4")
             self.env_cube.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
             lut = ambient_lut(env)
             self.ambient_lut = self.ctx.texture((lut.shape[0], 1), 3, lut.tobytes(), dtype="f4")
             self.ambient_lut.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
             self.ambient_lut.repeat_x = False
+            if env.kind == "map":
+                irr = irradiance_cube(env)
+                self.env_irradiance = self.ctx.texture_cube((16, 16), 3, irr.tobytes(), dtype="f4")
+                self.env_irradiance.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+                self.env_map = self.ctx.texture(env.pixels.shape[1::-1], 3, env.pixels.tobytes(), dtype="f4")
+                self.env_map.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+                self.env_map.repeat_y = False
             self.env_key = key
         return self.env_cube, self.ambient_lut
 
+    def environment_map(self, env: Environment) -> tuple:
+        """A map's texels as a texture and its irradiance / pi as a 16 x 16 cube map
+        (irradiance_cube: it varies with azimuth, which ambient_lut leaves out), or Nones for
+        the other kinds (environment_maps makes them)."""
+        self.environment_maps(env)
+        return self.env_map, self.env_irradiance
+
     def release(self) -> None:
         for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.vbo_col, self.ibo, self.tri_materials,
-                    self.material_table, self.textures, self.env_cube, self.ambient_lut):
+                    self.material_table, self.textures, self.env_cube, self.ambient_lut, self.env_map, self.env_irradiance):
             if obj is not None:
                 obj.release()
         for _, vao in self._vaos.values():

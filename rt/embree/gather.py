@@ -14,7 +14,7 @@ from rt.environment import env_args  # noqa: F401  (the kernels' callers read it
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def split_hits(prim, m, dirs, owner, out, env_kind, env_color, horizon, zenith, ground, sel):
+def split_hits(prim, m, dirs, owner, out, env_kind, env_color, horizon, zenith, ground, texels, sel):
     """sel[:k] = the rays j < m that hit something (returns k); a ray that missed adds the
     environment's radiance along dirs[j] to out[owner[j]] (kinds as env_args)."""
     terms = environment_terms(env_kind, env_color, horizon, zenith, ground)
@@ -24,7 +24,7 @@ def split_hits(prim, m, dirs, owner, out, env_kind, env_color, horizon, zenith, 
         sel[k] = j  # branch-free: kept by moving on
         k += hit
         if not hit and env_kind != 0:
-            r, g, b = environment_rgb(dirs[j, 1], terms)
+            r, g, b = environment_rgb(dirs[j, 0], dirs[j, 1], dirs[j, 2], terms, texels)
             i = owner[j]
             out[i, 0] += r
             out[i, 1] += g
@@ -55,10 +55,10 @@ def add_bounce(out, owner, sel, k, albedo, metallic, direct, inner):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _fill_run(out, aux, aux_fill, view_dir, terms, p0, p1):
+def _fill_run(out, aux, aux_fill, view_dir, terms, texels, p0, p1):
     channels = aux.shape[1] if aux.shape[0] > 0 else 0  # an empty aux: none (RtFrame.aux_image)
     for p in range(p0, p1):
-        r, g, b = environment_rgb(view_dir[p, 1], terms)
+        r, g, b = environment_rgb(view_dir[p, 0], view_dir[p, 1], view_dir[p, 2], terms, texels)
         out[p, 0], out[p, 1], out[p, 2] = r, g, b
         for a in range(channels):
             aux[p, a] = aux_fill
@@ -73,15 +73,15 @@ def fill_uncovered(out, aux, aux_fill, pix, b0, b1, view_dir, env):
     RtFrame.background and RtFrame.image fill in, done here by the worker that writes the
     covered pixels around them, instead of two passes over the whole image before the frame;
     an empty aux gets nothing: RtFrame.aux_image)."""
-    kind, color, horizon, zenith, ground = env
+    kind, color, horizon, zenith, ground, texels = env
     terms = environment_terms(kind, color, horizon, zenith, ground)
     n = pix.shape[0]
     p = pix[b0 - 1] + 1 if b0 > 0 else 0
     for j in range(b0, b1):
-        _fill_run(out, aux, aux_fill, view_dir, terms, p, pix[j])
+        _fill_run(out, aux, aux_fill, view_dir, terms, texels, p, pix[j])
         p = pix[j] + 1
     if b1 == n:
-        _fill_run(out, aux, aux_fill, view_dir, terms, p, out.shape[0])
+        _fill_run(out, aux, aux_fill, view_dir, terms, texels, p, out.shape[0])
 
 
 @njit(cache=True, error_model="numpy", nogil=True)

@@ -63,7 +63,7 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
     bounce from 4 + 6 x (bounces x r).
     Returns the rays traced."""
     nb = keys.shape[0]
-    env_kind, env_color, horizon, zenith, ground = frame.env
+    env_kind, env_color, horizon, zenith, ground, texels = frame.env
     (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
      colors) = scene.mesh
     o, d, t, owner = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32), np.empty(nb, np.float32),
@@ -92,7 +92,7 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
                                    embree.no_trace(frame.target), raygen.NOT_TRACED)
         embree.trace_intersect(frame.target, o[:m], d[:m], tmax[:m], th, prim, u, v)
         level_light[:npts] = 0.0
-        k = gather.split_hits(prim, m, d, owner, into, env_kind, env_color, horizon, zenith, ground, sel)
+        k = gather.split_hits(prim, m, d, owner, into, env_kind, env_color, horizon, zenith, ground, texels, sel)
         hits = sel[:k]
         # ---- the hits shaded, and lit by one light sample each ----
         _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic, emission,

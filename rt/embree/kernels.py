@@ -384,24 +384,52 @@ def fill_rows(out, value):
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def environment_terms(kind, color, horizon, zenith, ground):
-    """An environment (kinds as rt/embree/gather.py: env_args) as the float32 terms environment_rgb
-    takes: a constant colour, and the analytic sky's horizon, zenith and ground colours
-    (scenes/model.py: sky_radiance) times its strength, zero where they do not apply."""
+    """An environment (kinds as rt/environment.py: env_args) as the float32 terms environment_rgb
+    takes: a constant colour, the analytic sky's horizon, zenith and ground colours
+    (scenes/model.py: sky_radiance) times its strength, and a map's strength and u shift, zero
+    where they do not apply."""
     f, zero = np.float32, np.float32(0.0)
     c0 = f(color[0]) if kind == 2 else zero
     k = (f(color[0]), f(color[1]), f(color[2])) if kind == 1 else (zero, zero, zero)
+    ms, mu = (f(color[0]), f(color[1])) if kind == 3 else (zero, zero)
     return (k[0], k[1], k[2], f(horizon[0]) * c0, f(horizon[1]) * c0, f(horizon[2]) * c0,
             f(zenith[0]) * c0, f(zenith[1]) * c0, f(zenith[2]) * c0,
-            f(ground[0]) * c0, f(ground[1]) * c0, f(ground[2]) * c0)
+            f(ground[0]) * c0, f(ground[1]) * c0, f(ground[2]) * c0, ms, mu)
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def environment_rgb(y, terms):
-    """The environment's radiance towards a direction of height y: black, a constant colour,
-    or the sky, from horizon to zenith above and half the horizon to the ground below
-    (branch-free float32, so that loops over pixels or rays vectorise)."""
-    k0, k1, k2, h0, h1, h2, z0, z1, z2, g0, g1, g2 = terms
+def env_map_rgb(x, y, z, texels, shift):
+    """Bilinear radiance of an equirectangular map towards (x, y, z), read as scenes/model.py's
+    equirect_lookup reads it (u wraps, v clamps)."""
+    h, w = texels.shape[0], texels.shape[1]
+    one = np.float32(1.0)
+    u = np.float32(np.arctan2(x, -z)) * np.float32(0.15915494309189535) + shift
+    u -= np.floor(u)
+    v = np.float32(np.arccos(min(max(y, -one), one))) * np.float32(0.3183098861837907)
+    fx, fy = u * w - np.float32(0.5), v * h - np.float32(0.5)
+    x0, y0 = np.floor(fx), np.floor(fy)
+    tx, ty = fx - x0, fy - y0
+    ix0 = int(x0) % w
+    ix1 = (ix0 + 1) % w
+    iy0 = min(max(int(y0), 0), h - 1)
+    iy1 = min(max(int(y0) + 1, 0), h - 1)
+    a, b, c = (one - tx) * (one - ty), tx * (one - ty), (one - tx) * ty
+    d = tx * ty
+    return (a * texels[iy0, ix0, 0] + b * texels[iy0, ix1, 0] + c * texels[iy1, ix0, 0] + d * texels[iy1, ix1, 0],
+            a * texels[iy0, ix0, 1] + b * texels[iy0, ix1, 1] + c * texels[iy1, ix0, 1] + d * texels[iy1, ix1, 1],
+            a * texels[iy0, ix0, 2] + b * texels[iy0, ix1, 2] + c * texels[iy1, ix0, 2] + d * texels[iy1, ix1, 2])
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def environment_rgb(x, y, z, terms, texels):
+    """The environment's radiance towards a unit direction: black, a constant colour, the sky
+    (from horizon to zenith above and half the horizon to the ground below: branch-free
+    float32, so that loops over pixels or rays vectorise) or a map's texels."""
+    k0, k1, k2, h0, h1, h2, z0, z1, z2, g0, g1, g2, ms, mu = terms
     one, zero = np.float32(1.0), np.float32(0.0)
+    if ms != zero:
+        r, g, b = env_map_rgb(x, y, z, texels, mu)
+        return r * ms, g * ms, b * ms
     y = min(max(y, -one), one)
     u = np.sqrt(abs(y))
     up = y >= zero
@@ -411,14 +439,14 @@ def environment_rgb(y, terms):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def background_fill(out, view_dir, covered, kind, color, horizon, zenith, ground):
-    """Uncovered pixels get the environment's radiance (kinds as rt/embree/gather.py: env_args);
-    covered ones 0. In float32, branch-free, so that it vectorises: it runs every frame of
-    every ray-traced pass."""
+def background_fill(out, view_dir, covered, kind, color, horizon, zenith, ground, texels):
+    """Uncovered pixels get the environment's radiance (kinds as rt/environment.py: env_args);
+    covered ones 0. In float32, branch-free for the gradients, so that it vectorises: it runs
+    every frame of every ray-traced pass."""
     terms = environment_terms(kind, color, horizon, zenith, ground)
     zero = np.float32(0.0)
     for p in prange(out.shape[0]):
-        r, g, b = environment_rgb(view_dir[p, 1], terms)
+        r, g, b = environment_rgb(view_dir[p, 0], view_dir[p, 1], view_dir[p, 2], terms, texels)
         cov = covered[p]
         out[p, 0] = zero if cov else r
         out[p, 1] = zero if cov else g

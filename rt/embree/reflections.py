@@ -32,13 +32,13 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl):
     """_mirror_hits for rays (o, d) already made (keys[k]: ray k's generator)."""
     (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
      colors) = scene.mesh
-    env_kind, env_color, horizon, zenith, ground = frame.env
+    env_kind, env_color, horizon, zenith, ground, texels = frame.env
     m = o.shape[0]
     th, prim = np.empty(m, np.float32), np.empty(m, np.int32)  # hits: distance, triangle, barycentrics
     u, v = np.empty(m, np.float32), np.empty(m, np.float32)
     embree.trace_intersect(frame.target, o, d, np.full(m, embree.MISS_T, np.float32), th, prim, u, v)
     owner, hit = np.arange(m), np.empty(m, np.int64)
-    k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, hit)
+    k = gather.split_hits(prim, m, d, owner, refl, env_kind, env_color, horizon, zenith, ground, texels, hit)
     hits = hit[:k]
     HP, HN, HNG, halb, hemis = (np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
                                 np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),

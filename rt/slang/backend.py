@@ -84,6 +84,7 @@ class SlangBackend(Backend):
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
         self._counted = 0  # rays counted: on the host (primary rays), and the device counter's increments read
         self._counter_read = 0  # the device counter's value when last read (it wraps at 2^32: differences are taken)
+        self._env_texels = None  # (the map's texels, their device buffer)
         self._counter_stale = False  # work that counts rays was submitted since the counter was last read
         self._timers: dict = {}  # the current frame's dispatches: name -> their GPU time (ms) when called
         self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
@@ -273,10 +274,20 @@ class SlangBackend(Backend):
             cursor[name] = buf
 
     def _environment(self, cursor) -> None:
-        """common.slang's Environment, from the same arguments as the Embree kernels'."""
-        for field, value in zip(("kind", "color", "horizon", "zenith", "ground"), env_args(self.inputs.environment),
-                                strict=True):
+        """common.slang's Environment, from the same arguments as the Embree kernels'; a map's
+        texels are uploaded once per map."""
+        *values, texels = env_args(self.inputs.environment)
+        for field, value in zip(("kind", "color", "horizon", "zenith", "ground"), values, strict=True):
             cursor[field] = value
+        if self._env_texels is None or self._env_texels[0] is not texels:  # a new map: rare, so the wait is
+            import slangpy as spy
+
+            self.device.wait()  # for the frames that read the old one
+            buf = self.device.create_buffer(element_count=texels.size, struct_size=4,
+                                            usage=spy.BufferUsage.shader_resource, data=texels.reshape(-1))
+            self._env_texels = (texels, buf)
+        cursor["texels"] = self._env_texels[1]
+        cursor["width"], cursor["height"] = int(texels.shape[1]), int(texels.shape[0])
 
     @_device_errors
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:

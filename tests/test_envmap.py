@@ -1,0 +1,139 @@
+"""Environment maps (env=FILE.hdr|.exr): the readers, the equirectangular convention every backend
+shares, backgrounds alike in the raster pass and on each ray-tracing backend, and the furnace:
+a white diffuse sphere under a uniform white map reflects exactly its albedo."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.camera import Camera
+from core.errors import UserError
+from rt.embree import kernels
+from rt.environment import env_args
+from scenes.loaders import load_scene
+from scenes.loaders.envmap import parse_env, read_envmap
+from scenes.model import Environment, equirect_lookup
+from tests.test_rt import run
+from tests.test_studio import _sphere_file
+
+
+def write_exr(path, pixels):
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(header, {"RGB": np.asarray(pixels, np.float32)}).write(str(path))
+    return str(path)
+
+
+def smooth_map(h=32, w=64):
+    """A map that varies with both angles and is continuous across its u seam."""
+    v, u = np.meshgrid((np.arange(h) + 0.5) / h, (np.arange(w) + 0.5) / w, indexing="ij")
+    return np.stack([1.0 + 0.5 * np.cos(2 * np.pi * u), 0.5 + v, 1.0 + 0.4 * np.sin(2 * np.pi * u) * v],
+                    -1).astype(np.float32)
+
+
+def _dirs(n, seed=3):
+    d = np.random.default_rng(seed).normal(size=(n, 3))
+    return (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+
+
+def test_exr_and_hdr_files_read_as_linear_radiance(tmp_path):
+    import imagecodecs
+
+    img = np.random.default_rng(0).random((8, 16, 3)).astype(np.float32) * 20
+    assert np.array_equal(read_envmap(Path(write_exr(tmp_path / "a.exr", img))), img)
+    (tmp_path / "a.hdr").write_bytes(imagecodecs.rgbe_encode(img))
+    got = parse_env(str(tmp_path / "a.hdr"))
+    assert got.kind == "map" and got.pixels.shape == (8, 16, 3)
+    step = img.max(-1, keepdims=True) / 128  # RGBE: 8-bit mantissas under the pixel's largest channel's exponent
+    assert (np.abs(got.pixels - img) <= step).all()
+
+
+@pytest.mark.parametrize("name, data, words", [("bad.exr", b"garbage" * 20, "not a readable OpenEXR"),
+                                               ("bad.hdr", b"garbage" * 20, "not a readable Radiance"),
+                                               ("missing.hdr", None, "cannot read")])
+def test_bad_map_files_give_one_line(tmp_path, name, data, words):
+    path = tmp_path / name
+    if data is not None:
+        path.write_bytes(data)
+    with pytest.raises(UserError, match=words):
+        parse_env(str(path))
+    r = subprocess.run([sys.executable, "-m", "app.cli", "shot", "arcade", "--size", "32x18", "--out",
+                        str(tmp_path / "x.png"), "--set", f"env={path}"], capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and words in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_equirect_convention():
+    """Mitsuba 3's: -Z at u = 0 (the left edge), +X a quarter in, +Y the top row; texel centres
+    read back exactly; env.rotation turns the map about +Y."""
+    h, w = 4, 8
+    img = np.arange(h * w * 3, dtype=np.float32).reshape(h, w, 3)
+    # +X at u = 0.25 (between columns 1 and 2), row centres v = (i + 0.5) / h
+    theta = (np.arange(h) + 0.5) / h * np.pi
+    for i, t in enumerate(theta):
+        d = np.array([[np.sin(t), np.cos(t), 0.0]], np.float32)
+        np.testing.assert_allclose(equirect_lookup(img, d)[0], (img[i, 1] + img[i, 2]) / 2, rtol=1e-5)
+    # -Z: u = 0, between the last and the first column (the map wraps)
+    np.testing.assert_allclose(equirect_lookup(img, np.array([[0.0, 0.0, -1.0]], np.float32))[0],
+                               (img[1, 0] + img[2, 0] + img[1, -1] + img[2, -1]) / 4, rtol=1e-5)
+    top = equirect_lookup(img, np.array([[1e-4, 1.0, 0.0]], np.float32))[0]
+    assert top[0] < img[0, :, 0].max() + 1e-3  # the top row, clamped, not the bottom one
+    turned = Environment("map", pixels=img, rotation=90.0)
+    np.testing.assert_allclose(turned.radiance(np.array([[0.0, 0.0, -1.0]], np.float32))[0],
+                               equirect_lookup(img, np.array([[1.0, 0.0, 0.0]], np.float32))[0], rtol=1e-5)
+
+
+@pytest.mark.parametrize("rotation", [0.0, 37.0])
+def test_the_kernels_read_a_map_as_the_model_does(rotation):
+    env = Environment("map", pixels=smooth_map(), strength=1.5, rotation=rotation)
+    d = _dirs(3000)
+    covered = np.random.default_rng(1).random(len(d)) < 0.3
+    out = np.full((len(d), 3), 9.0, np.float32)
+    kernels.background_fill(out, d, covered, *env_args(env))
+    want = env.radiance(d)
+    want[covered] = 0
+    np.testing.assert_allclose(out, want, rtol=1e-4, atol=1e-4)
+
+
+@pytest.mark.parametrize("tracer", ["embree", "vulkan"])
+def test_a_map_background_is_the_same_in_every_pass(gl, tmp_path, tracer):
+    """Looking past the sphere at a map, turned: the forward pass (GL's texture filter), AO
+    (every backend's background) and the model's lookup agree."""
+    scene = load_scene(_sphere_file(tmp_path))
+    cam = Camera(np.array([0.0, 0.5, 4.0]), np.array([0.0, 0.5, 0.0]), np.array([0.0, 1.0, 0.0]), 70)
+    cam.fit_clip(scene.diagonal)
+    path = write_exr(tmp_path / "sky.exr", smooth_map())
+    sets = ("jitter=false", f"tracer={tracer}", f"env={path}", "env.rotation=30", "env.intensity=2")
+    forward = run(gl, scene, "forward", size=(32, 24), camera=cam, sets=sets + ("forward.fxaa=false",))[..., :3]
+    traced = run(gl, scene, "ao", size=(32, 24), camera=cam, sets=sets)[..., :3]
+    pos = run(gl, scene, "position", size=(32, 24), camera=cam, sets=sets)[..., :3]
+    sky = np.abs(pos).sum(-1) == 0
+    assert 200 < sky.sum() < 32 * 24 - 50
+    np.testing.assert_allclose(traced[sky], forward[sky], rtol=1e-2, atol=1e-2)
+    assert np.ptp(traced[sky][:, 0]) > 0.5  # a map, not a constant
+
+
+@pytest.mark.parametrize("tracer", ["embree", "vulkan"])
+def test_furnace_white_map_gives_the_albedo(gl, tmp_path, tracer):
+    """A convex diffuse sphere of albedo 0.8 under a uniform map of radiance 1: every bounce ray
+    escapes, so GI and the reference give 0.8 exactly, and the forward pass's ambient (the
+    map's irradiance cube) 0.8 up to its quadrature."""
+    scene = load_scene(_sphere_file(tmp_path))
+    cam = Camera(np.array([0.0, 0.0, 3.5]), np.array([0.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]), 45)
+    cam.fit_clip(scene.diagonal)
+    path = write_exr(tmp_path / "white.exr", np.ones((16, 32, 3), np.float32))
+    sets = ("jitter=false", f"tracer={tracer}", f"env={path}", "brdf=lambert", "forward.ssao=false",
+            "forward.env_reflections=false")
+    pos = run(gl, scene, "position", size=(32, 24), camera=cam, sets=sets)[..., :3]
+    ball = np.abs(pos).sum(-1) > 0
+    assert ball.sum() > 150
+    for pass_name, tol in (("gi", 2e-3), ("reference", 2e-3), ("forward", 1.5e-2)):
+        img = run(gl, scene, pass_name, size=(32, 24), camera=cam, frames=2, sets=sets)[..., :3]
+        # at the faceted sphere's silhouette a bounce ray under the smooth normal can hit a neighbouring facet
+        near = np.abs(img[ball] - 0.8).max(-1) < tol
+        assert near.mean() > 0.95, (pass_name, near.mean())
+        np.testing.assert_allclose(np.median(img[ball], 0), 0.8, atol=tol, err_msg=pass_name)
+        np.testing.assert_allclose(img[~ball], 1.0, atol=1e-3, err_msg=pass_name)
