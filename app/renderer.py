@@ -3,7 +3,6 @@ scene -> G-buffer -> pass -> accumulation -> display. Dirty frames reset accumul
 from __future__ import annotations
 
 import dataclasses
-
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,8 +17,8 @@ from app.raster.channel_view import CHANNEL_VIEWS
 from app.raster.gpu_scene import GpuScene
 from app.raster.upload import Uploads, read_rgba
 from core.errors import DeviceError, UserError
-from scenes.model import Environment
 from scenes.loaders.envmap import parse_env
+from scenes.model import Environment
 
 JITTERED_STILL_FRAMES = 64  # a still forward view stops re-rendering after this many jittered frames
 

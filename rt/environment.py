@@ -5,7 +5,6 @@ import numpy as np
 
 from scenes.model import GRADIENTS
 
-
 _NO_MAP = np.zeros((1, 1, 3), np.float32)
 
 

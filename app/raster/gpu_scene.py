@@ -222,7 +222,8 @@ class GpuScene:
 
     def release(self) -> None:
         for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.vbo_col, self.ibo, self.tri_materials,
-                    self.material_table, self.textures, self.env_cube, self.ambient_lut, self.env_map, self.env_irradiance):
+                    self.material_table, self.textures, self.env_cube, self.ambient_lut, self.env_map,
+                    self.env_irradiance):
             if obj is not None:
                 obj.release()
         for _, vao in self._vaos.values():
