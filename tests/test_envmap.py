@@ -15,7 +15,7 @@ from rt.environment import env_args
 from scenes.loaders import load_scene
 from scenes.loaders.envmap import parse_env, read_envmap
 from scenes.model import Environment, equirect_lookup
-from tests.test_rt import run
+from tests.test_rt import make, run
 from tests.test_studio import _sphere_file
 
 
@@ -137,3 +137,19 @@ def test_furnace_white_map_gives_the_albedo(gl, tmp_path, tracer):
         assert near.mean() > 0.95, (pass_name, near.mean())
         np.testing.assert_allclose(np.median(img[ball], 0), 0.8, atol=tol, err_msg=pass_name)
         np.testing.assert_allclose(img[~ball], 1.0, atol=1e-3, err_msg=pass_name)
+
+
+def test_another_map_of_the_same_size_replaces_the_first(gl, tmp_path):
+    """One renderer, env switched between maps of one shape and strength: the raster background
+    follows each (the GL textures are made again for a new map)."""
+    scene = load_scene(_sphere_file(tmp_path))
+    cam = Camera(np.array([0.0, 0.5, 4.0]), np.array([0.0, 0.5, 0.0]), np.array([0.0, 1.0, 0.0]), 70)
+    cam.fit_clip(scene.diagonal)
+    r = make(gl, scene, ("jitter=false", "forward.fxaa=false"))
+    try:
+        for value in (0.25, 2.0, 0.25):
+            r.options.set("env", write_exr(tmp_path / f"m{value}.exr", np.full((8, 16, 3), value, np.float32)))
+            r.render(cam, 16, 12, "forward")
+            assert r.read_linear()[0, 0, :3] == pytest.approx([value] * 3, rel=1e-3)
+    finally:
+        r.release()

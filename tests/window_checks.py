@@ -68,14 +68,12 @@ def test_dropping_a_file_opens_it():
             bad.write_bytes(b"not an exr")
             v._dropped(v.window, [str(bad)])
             assert "not a readable OpenEXR" in v.panel.error and v.options.get("env") == "scene"
-            import OpenEXR
+            from tests.test_envmap import write_exr
 
-            good = Path(folder) / "sky.exr"
-            OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
-                         {"RGB": np.full((8, 16, 3), 0.5, np.float32)}).write(str(good))
-            v._dropped(v.window, [str(good)])
+            good = write_exr(Path(folder) / "sky.exr", np.full((8, 16, 3), 0.5, np.float32))
+            v._dropped(v.window, [good])
             v.frame(0.016)
-            assert v.options.get("env") == str(good) and not v.panel.error
+            assert v.options.get("env") == good and not v.panel.error
             assert v.renderer.environment().kind == "map"
     finally:
         v.close()

@@ -83,7 +83,7 @@ class ForwardLightingPass(Pass):
             set_uniform(prog, "env_strength", float(env.strength))
             set_uniform(prog, "ambient_radiance", tuple(map(float, frame.scene.ambient)))
             set_uniform(prog, "ambient_scale", float(opts.ambient))
-            texels, irradiance = frame.gpu.environment_map(env)
+            _, irradiance = frame.gpu.environment_map(env)
             set_uniform(prog, "use_irradiance_cube", int(irradiance is not None))
             textures = {"ambient_lut": lut, "env_cube": cube, "irradiance_cube": irradiance or cube,
                         "ssao": frame.channels.get("ssao", self.dummy_ao) if use_ssao else self.dummy_ao,

@@ -12,6 +12,7 @@ TRI_TEX_WIDTH = 4096
 MAX_LIGHTS = 128
 KIND = {"point": 0, "spot": 1, "directional": 2, "proxy": 3}
 ENV_KIND = {"black": 0, "sky": 1, "constant": 2, "studio": 3, "map": 4}
+IRRADIANCE_SIZE = 16  # texels of a face of a map's irradiance cube (irradiance_cube)
 
 # GL cube map face directions for texel coordinates sc, tc in [-1, 1]
 CUBE_FACES = (
@@ -75,7 +76,7 @@ def cube_directions(size: int) -> np.ndarray:
     return (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
 
 
-def irradiance_cube(env: Environment, size: int = 16, rows: int = 64) -> np.ndarray:
+def irradiance_cube(env: Environment, size: int = IRRADIANCE_SIZE, rows: int = 64) -> np.ndarray:
     """Irradiance / pi of an environment towards the normals of a cube map's texels (no
     occlusion): the cosine-weighted integral over a (rows x 2 rows) grid of directions, each
     weighted by its solid angle, from the environment's own bilinear radiance."""
@@ -111,6 +112,7 @@ class GpuScene:
         self.env_cube = None
         self.ambient_lut = None
         self.env_map = self.env_irradiance = None  # a map's texels and irradiance (environment_map)
+        self.env_pixels = None  # the map they were made from
         self.proxies = emissive_proxy_lights(scene)
 
     def _upload_materials(self) -> None:
@@ -188,10 +190,9 @@ class GpuScene:
 
     def environment_maps(self, env: Environment, size: int = 64):
         """Cube map and ambient LUT of the environment, rebuilt only when it changes; for a map,
-        its irradiance cube (irradiance_cube) stands in for the LUT, and its texels are
-        environment_texture()."""
-        key = (env.kind, tuple(env.color), env.strength, id(env.pixels), env.rotation)
-        if key != self.env_key:
+        also its texels and irradiance cube (environment_map)."""
+        key = (env.kind, tuple(env.color), env.strength, env.rotation)
+        if key != self.env_key or env.pixels is not self.env_pixels:  # the array itself: an id can be reused
             data = env.radiance(cube_directions(size)).astype("f4")
             for obj in (self.env_cube, self.ambient_lut, self.env_map, self.env_irradiance):
                 if obj is not None:
@@ -204,17 +205,17 @@ class GpuScene:
             self.ambient_lut.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
             self.ambient_lut.repeat_x = False
             if env.kind == "map":
-                irr = irradiance_cube(env)
-                self.env_irradiance = self.ctx.texture_cube((16, 16), 3, irr.tobytes(), dtype="f4")
+                irr = irradiance_cube(env, IRRADIANCE_SIZE)
+                self.env_irradiance = self.ctx.texture_cube((IRRADIANCE_SIZE,) * 2, 3, irr.tobytes(), dtype="f4")
                 self.env_irradiance.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
                 self.env_map = self.ctx.texture(env.pixels.shape[1::-1], 3, env.pixels.tobytes(), dtype="f4")
                 self.env_map.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
                 self.env_map.repeat_y = False
-            self.env_key = key
+            self.env_key, self.env_pixels = key, env.pixels
         return self.env_cube, self.ambient_lut
 
     def environment_map(self, env: Environment) -> tuple:
-        """A map's texels as a texture and its irradiance / pi as a 16 x 16 cube map
+        """A map's texels as a texture and its irradiance / pi as a small cube map
         (irradiance_cube: it varies with azimuth, which ambient_lut leaves out), or Nones for
         the other kinds (environment_maps makes them)."""
         self.environment_maps(env)
