@@ -4,8 +4,10 @@ Multi-bounce, diffuse + mirror-like specular consistent with the passes: surface
 than `reflections.roughness_threshold` reflect with Schlick's Fresnel probability and are
 diffuse otherwise; next-event estimation (one light sample + shadow ray) at diffuse vertices,
 combined with the cosine-weighted bounce's hits on emitters by multiple importance sampling
-(`reference.mis`, the power heuristic); emission counted at the camera and after mirror
-bounces (where NEE cannot reach); Russian roulette after `reference.rr_start` bounces.
+(`reference.mis`, the power heuristic); an environment map sampled by importance
+too (rt/environment.py EnvDistribution: its luminance), weighted the same way against the
+bounce that escapes to it; emission counted at the camera and after mirror bounces (where NEE
+cannot reach); Russian roulette after `reference.rr_start` bounces.
 Backends: rt/embree/reference.py, shaders/rt/reference.slang."""
 from __future__ import annotations
 
@@ -20,7 +22,9 @@ class ReferenceOptions:
     max_bounces: int = opt(8, "indirect bounces before a path stops", 1, 64)
     rr_start: int = opt(3, "Russian roulette from this bounce on", 1, 64)
     mis: bool = opt(True, "combine light sampling and the diffuse bounce's hits on emitters by multiple importance "
-                    "sampling (power heuristic; the study's surface model), else light sampling alone")
+                    "sampling (power heuristic; the study's surface model), and sample the environment by "
+                    "importance against the bounces that escape to it; else light sampling alone for emitters, "
+                    "bounces alone for the environment")
 
 
 register_group("reference", ReferenceOptions)

@@ -64,3 +64,14 @@ def mirror_floor(roughness=0.05):
     b.add(grid(2, 2), "red_wall", trs((0, 2.5, -5), 0.0, (20, 1, 5), rotate_x=np.pi / 2))
     b.view("down", (0.0, 1.0, 2.0), (0.0, 0.0, -1.0), 50)
     return b.build()
+
+
+def sun_patch_map(h=64, w=128, sky=0.2, sun=500.0):
+    """An equirectangular map (h, w, 3) of a dim uniform sky with a small bright sun: 3 x 3 texels
+    towards (0.5, 0.7, 0.5) (up, front right of a camera on +Z), holding ~97 % of the light
+    that reaches a surface facing it; the map of the environment importance-sampling tests and
+    of the Mitsuba reference ggx_spheres_map (tests/refs/make_mitsuba_refs.py)."""
+    pixels = np.full((h, w, 3), sky, np.float32)
+    col, row = int(0.375 * w), int(0.252 * h)
+    pixels[row - 1:row + 2, col - 1:col + 2] = sun
+    return pixels

@@ -129,6 +129,25 @@ def test_reference_matches_mitsuba_path_tracer(gl, tmp_path, name, sets, frames)
     assert np.median(rel) < bound, np.median(rel)
 
 
+@pytest.mark.parametrize("sets", [(), ("tracer=vulkan",)])
+def test_reference_under_a_map_matches_mitsuba(gl, tmp_path, sets):
+    """The white GGX spheres under an environment map of a dim sky and a small bright sun
+    (tests/scenes_for_tests.py sun_patch_map) and the point light, 3 bounces: the map sampled by
+    importance against both lobes (MIS) gives Mitsuba's path tracer with its envmap."""
+    from tests.scenes_for_tests import sun_patch_map
+    from tests.test_envmap import write_exr
+
+    document, size, bounces, _ = MITSUBA_SCENES["ggx_spheres"]
+    scene = _load(tmp_path, document())
+    ref, keep = _mitsuba("ggx_spheres_map")
+    env = write_exr(tmp_path / "sun.exr", sun_patch_map())
+    got = run(gl, scene, "reference", frames=256, size=size,
+              sets=(f"env={env}", f"reference.max_bounces={bounces}", "reference.rr_start=8") + sets)
+    rel = np.abs(got[keep] - ref[keep]) / ref[keep]
+    assert got[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01)
+    assert np.median(rel) < 0.035, np.median(rel)
+
+
 def test_builtin_scenes_keep_the_study_model_unless_asked(gl):
     scene = build_builtin("arcade")
     assert not scene.uses_ggx("auto") and scene.uses_ggx("ggx")

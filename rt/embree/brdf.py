@@ -188,6 +188,35 @@ def smith_g1(cos: np.ndarray, a: np.ndarray) -> np.ndarray:
     return 2.0 * cos / (cos + np.sqrt(a * a + (1.0 - a * a) * cos * cos))
 
 
+def ggx_d(cos_nh: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """GGX's distribution of normals D (module notes)."""
+    a2 = a * a
+    t = np.maximum(cos_nh, 0.0) ** 2 * (a2 - 1.0) + 1.0
+    return a2 / (np.pi * t * t)
+
+
+def ggx_lobes(n: np.ndarray, v: np.ndarray, lt: np.ndarray, albedo, metallic, a) -> tuple[np.ndarray, np.ndarray]:
+    """The two lobes of f(v, l) for whole arrays (N,3): diffuse c_diff (1 - F) / pi and specular
+    F D V, as ggx_terms (unit n, v towards the viewer, l towards the light)."""
+    f0_rgb = 0.04 * (1 - metallic[:, None]) + albedo * metallic[:, None]
+    h = unit(v + lt)
+    f = schlick(f0_rgb, np.einsum("ij,ij->i", v, h))
+    nv = np.maximum(np.einsum("ij,ij->i", n, v), float(MIN_COS))
+    nl = np.maximum(np.einsum("ij,ij->i", n, lt), float(MIN_COS))
+    a2 = a * a
+    vis = 1.0 / ((nv + np.sqrt(a2 + (1 - a2) * nv * nv)) * (nl + np.sqrt(a2 + (1 - a2) * nl * nl)))
+    dv = ggx_d(np.einsum("ij,ij->i", n, h), a) * vis
+    return albedo * (1 - metallic[:, None]) * (1 - f) / np.pi, f * dv[:, None]
+
+
+def visible_normal_pdf(n: np.ndarray, v: np.ndarray, lt: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """The density per solid angle of direction l reflected about a normal drawn from GGX's
+    visible normals (visible_normal): G1(v) D(h) / (4 n.v)."""
+    h = unit(v + lt)
+    nv = np.maximum(np.einsum("ij,ij->i", n, v), float(MIN_COS))
+    return smith_g1(nv, a) * ggx_d(np.einsum("ij,ij->i", n, h), a) / (4 * nv)
+
+
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
 def visible_normals(N, V, A, U, out):
     """out[i] = visible_normal for point i (unit normal N[i], view V[i], alpha A[i], uniforms

@@ -7,8 +7,10 @@ otherwise; at diffuse vertices next-event estimation (one light sample + shadow 
 cosine-weighted bounce both reach emitting triangles, combined by multiple importance sampling
 (the power heuristic: raygen.mis_weight, shading.emission_weight), so that a small bright
 emitter seen close by does not make fireflies; emission counted in full at the camera and
-after mirror bounces (where NEE cannot reach). glTF's (trace_paths_ggx): GGX and Lambert lobes,
-below, with NEE alone for emitters. Russian roulette after `reference.rr_start` bounces."""
+after mirror bounces (where NEE cannot reach); the environment sampled by importance at the
+same vertices (env_light, one more shadow ray), weighted against the bounces that escape to it
+(_next_vertex). glTF's (trace_paths_ggx): GGX and Lambert lobes, below, with NEE alone for
+emitters. Russian roulette after `reference.rr_start` bounces."""
 from __future__ import annotations
 
 import numpy as np
@@ -26,6 +28,7 @@ from rt.embree.shading import (
     mirror,
     trace_from,
 )
+from rt.environment import env_distribution
 
 
 def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = True) -> np.ndarray:
@@ -36,6 +39,7 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = T
     beta = np.ones((n, 3), np.float32)
     alive = np.arange(n)
     d_in = view
+    env = env_distribution(cf.environment) if mis else None  # the environment sampled by importance, with MIS
     for bounce in range(max_bounces + 1):
         f = np.where((s.roughness < thr)[:, None], fresnel_schlick(s, d_in), 0).astype(np.float32)
         p_spec = np.clip(f @ LUMA, 0, 1)
@@ -45,7 +49,11 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = T
         w_diff = np.where(diff[:, None], (1 - f) / np.maximum(1 - p_spec, 1e-6)[:, None], 0)
         # next-event estimation at diffuse vertices
         di = np.nonzero(diff)[0]
-        e = direct_one(cf.data, cf.tracer, s.take(di), rng.subset(di), mis=mis)
+        sd, rd = s.take(di), rng.subset(di)
+        e = direct_one(cf.data, cf.tracer, sd, rd, mis=mis)
+        if env is not None:  # dimensions 5, 6 of the bounce
+            ld, p_env, le, cs = env_light(cf, sd, rd, env)
+            e += le * (cs * mis_weight(p_env, cs * INV_PI))[:, None]
         radiance[alive[di]] += beta[di] * w_diff[di] * s.albedo[di] * INV_PI * e
         if bounce == max_bounces:
             break
@@ -54,18 +62,25 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = T
         d[si] = mirror(d_in[si], s.take(si))
         beta = np.where(spec[:, None], beta * f / np.maximum(p_spec, 1e-6)[:, None], beta * w_diff * s.albedo)
         keep = np.einsum("ij,ij->i", d, s.ng) > 0  # diffuse directions below the true surface carry nothing
+        escape = None  # the density of d for the environment's MIS: the cosine's, or -1 after a mirror
+        if env is not None:
+            escape = (env, np.where(spec, -1.0, np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI))
         alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, spec, radiance, alive, rng,
-                                                 bounce + 1 >= rr_start, mis=mis)
+                                                 bounce + 1 >= rr_start, mis=mis, escape=escape)
     return radiance
 
 
-def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: bool, mis: bool = False):
+def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: bool, mis: bool = False,
+                 escape=None):
     """A path step's end, shared by both surface models: Russian roulette (roulette: one number
     per point) among the paths kept, their rays along d traced; where they miss, the
     environment's light times beta goes to their pixels (alive), and where they hit, the hit's
     emission for paths whose `counts` is set, and with `mis` for the others (cosine-weighted
-    bounces) weighted against next-event estimation (shading.emission_weight). Returns the
-    paths that go on: (alive, beta, their directions, the surfaces hit, their generators)."""
+    bounces) weighted against next-event estimation (shading.emission_weight). escape: where the
+    environment is sampled too (env_light), (its distribution, each path's density of drawing d
+    by its bounce, or -1 where the environment's light along d counts in full): the light of
+    rays that miss weighted against the environment's sampling of d. Returns the paths that go
+    on: (alive, beta, their directions, the surfaces hit, their generators)."""
     if roulette:
         q = np.clip(beta @ LUMA, 0.05, 0.95)
         keep &= rng.next(1)[:, 0] < q
@@ -73,7 +88,12 @@ def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: b
     idx = np.nonzero(keep)[0]
     hit, sh, miss, hits = trace_from(cf.data, cf.tracer, s.take(idx), d[idx], with_hits=True)
     m = idx[miss]
-    radiance[alive[m]] += beta[m] * cf.environment.radiance(d[m])
+    light = cf.environment.radiance(d[m])
+    if escape is not None and len(m):
+        env, q = escape
+        w = mis_weight(q[m], env.pdf(d[m], cf.environment.rotation_u))
+        light *= np.where(q[m] < 0, 1.0, w)[:, None]
+    radiance[alive[m]] += beta[m] * light
     h = idx[hit]
     seen = counts[h]
     radiance[alive[h[seen]]] += beta[h[seen]] * sh.emissive[seen]
@@ -85,17 +105,20 @@ def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: b
     return alive[h], beta[h], d[h], sh, rng.subset(h)
 
 
-def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.ndarray:
+def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = True) -> np.ndarray:
     """trace_paths for glTF's BRDF (rt/embree/brdf.py). At each vertex: next-event estimation
     with the whole BRDF (both lobes; the diffuse lobe alone where the surface is smoother than
     brdf.MIRROR_ROUGHNESS, whose near-mirror lobe the bounce alone estimates, emission seen
     after it counting), then the next direction from one lobe, picked with probability ~ its
     estimated weight: GGX's visible normals (weight F G1(l)) or cosine-weighted (weight
-    c_diff (1 - F)). Random dimensions as trace_paths: lobe, light (4), direction (2), roulette."""
+    c_diff (1 - F)). The environment as in trace_paths, its sample weighted against each lobe's
+(mis). Random dimensions as trace_paths: lobe, light (4), environment (2, where sampled),
+direction (2), roulette."""
     radiance = s.emissive.copy()
     beta = np.ones((len(s), 3), np.float32)
     alive = np.arange(len(s))
     d_in = view
+    env = env_distribution(cf.environment) if mis else None  # the environment sampled by importance, with MIS
     for bounce in range(max_bounces + 1):
         n, v = len(s), -d_in
         a = np.maximum(s.roughness * s.roughness, float(brdf.MIN_ALPHA))
@@ -116,6 +139,13 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
         edv, edvw = acc[:, 6:9], acc[:, 9:12]
         light = c_diff * INV_PI * (1 - f0) * (e - ew)
         light += np.where(near_mirror[:, None], 0, f0 * edv + (1 - f0) * edvw)
+        if env is not None:  # dimensions 5, 6 of the bounce: the environment's sample, both lobes
+            ld, p_env, le, cs = env_light(cf, s, rng, env)
+            diffuse, specular = brdf.ggx_lobes(s.n, v, ld, s.albedo, s.metallic, a)
+            q_diff = (1 - p_spec) * cs * INV_PI
+            q_spec = p_spec * brdf.visible_normal_pdf(s.n, v, ld, a)
+            specular = np.where(near_mirror[:, None], 0, specular * mis_weight(p_env, q_spec)[:, None])
+            light += (diffuse * mis_weight(p_env, q_diff)[:, None] + specular) * le * cs[:, None]
         radiance[alive] += beta * light
         if bounce == max_bounces:
             break
@@ -137,9 +167,38 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int) -> np.nda
         beta = (beta * np.where(spec[:, None], weight_spec, weight_diff)).astype(np.float32)
         keep = (np.einsum("ij,ij->i", d, s.ng) > 0) & (np.einsum("ij,ij->i", d, s.n) > 0)
         counts = spec & near_mirror  # emission at the next hit: the near-mirror lobe's, not NEE's
+        escape = None
+        if env is not None:  # the density with which the lobe picked drew d
+            q = np.where(spec, p_spec * brdf.visible_normal_pdf(s.n, v, d, a),
+                         (1 - p_spec) * np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI)
+            escape = (env, np.where(counts, -1.0, q))
         alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng,
-                                                 bounce + 1 >= rr_start)
+                                                 bounce + 1 >= rr_start, escape=escape)
     return radiance
+
+
+def mis_weight(p_this: np.ndarray, p_other: np.ndarray) -> np.ndarray:
+    """The power heuristic's weight of a sample drawn with density p_this against a strategy
+    that draws it with p_other (raygen.mis_weight for whole arrays)."""
+    a, b = np.square(p_this, dtype=np.float64), np.square(p_other, dtype=np.float64)
+    return np.where(a + b > 0, a / np.where(a + b > 0, a + b, 1), 0).astype(np.float32)
+
+
+def env_light(cf, s, rng, env):
+    """One sample of the environment's light at points s, drawn by importance (env: its
+    rt/environment.py EnvDistribution; two dimensions of rng) with a shadow ray: (directions,
+    their densities, radiance / density where the direction is above the shading and the true
+    surface and nothing blocks it, else 0, and the cosine with the shading normal)."""
+    u = rng.next(2)
+    d, p_env = env.sample(u[:, 0], u[:, 1], cf.environment.rotation_u)
+    cs = np.einsum("ij,ij->i", d, s.n).astype(np.float32)
+    up = np.flatnonzero((cs > 0) & (np.einsum("ij,ij->i", d, s.ng) > 0) & (p_env > 0))
+    le = np.zeros((len(s), 3), np.float32)
+    if len(up):
+        su = s.take(up)
+        seen = ~cf.tracer.occluded(cf.data.offset(su), d[up], cf.data.far)
+        le[up] = cf.environment.radiance(d[up]) * (seen / p_env[up])[:, None]
+    return d, p_env, le, np.maximum(cs, 0)
 
 
 def trace(rf) -> dict:
@@ -148,7 +207,7 @@ def trace(rf) -> dict:
     mis = bool(rf.options.get("reference.mis"))
     if rf.ggx:
         def paths(cf):
-            return trace_paths_ggx(cf, cf.s, cf.view, cf.rng(5), bounces, rr)
+            return trace_paths_ggx(cf, cf.s, cf.view, cf.rng(5), bounces, rr, mis)
     else:
         def paths(cf):
             return trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr, mis)

@@ -12,7 +12,7 @@ from core.errors import DeviceError, UserError
 from rt.backend import Backend, FrameInputs
 from rt.effects import AUX_CHANNEL, AUX_CHANNELS, STREAM
 from rt.effects import EFFECTS as ALL_EFFECTS
-from rt.environment import env_args
+from rt.environment import env_args, env_distribution
 from rt.slang.device import open_device
 from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
@@ -84,7 +84,7 @@ class SlangBackend(Backend):
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
         self._counted = 0  # rays counted: on the host (primary rays), and the device counter's increments read
         self._counter_read = 0  # the device counter's value when last read (it wraps at 2^32: differences are taken)
-        self._env_texels = None  # (the map's texels, their device buffer)
+        self._env_texels = None  # (the map's texels, their device buffer, its distribution's, its cells)
         self._counter_stale = False  # work that counts rays was submitted since the counter was last read
         self._timers: dict = {}  # the current frame's dispatches: name -> their GPU time (ms) when called
         self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
@@ -275,7 +275,7 @@ class SlangBackend(Backend):
 
     def _environment(self, cursor) -> None:
         """common.slang's Environment, from the same arguments as the Embree kernels'; a map's
-        texels are uploaded once per map."""
+        texels and sampling distribution (rt/environment.py) are uploaded once per map."""
         *values, texels = env_args(self.inputs.environment)
         for field, value in zip(("kind", "color", "horizon", "zenith", "ground"), values, strict=True):
             cursor[field] = value
@@ -283,11 +283,17 @@ class SlangBackend(Backend):
             import slangpy as spy
 
             self.device.wait()  # for the frames that read the old one
-            buf = self.device.create_buffer(element_count=texels.size, struct_size=4,
-                                            usage=spy.BufferUsage.shader_resource, data=texels.reshape(-1))
-            self._env_texels = (texels, buf)
-        cursor["texels"] = self._env_texels[1]
+            dist = env_distribution(self.inputs.environment)
+            cdf = dist.cdf if dist is not None else np.array([0.0, 1.0], np.float32)
+            cells = (dist.width, dist.height) if dist is not None else (0, 0)
+            buf, cdf_buf = (self.device.create_buffer(element_count=a.size, struct_size=4,
+                                                      usage=spy.BufferUsage.shader_resource, data=a.reshape(-1))
+                            for a in (texels, cdf))
+            self._env_texels = (texels, buf, cdf_buf, cells)
+        _, buf, cdf_buf, cells = self._env_texels
+        cursor["texels"], cursor["cdf"] = buf, cdf_buf
         cursor["width"], cursor["height"] = int(texels.shape[1]), int(texels.shape[0])
+        cursor["cells_u"], cursor["cells_v"] = cells
 
     @_device_errors
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:

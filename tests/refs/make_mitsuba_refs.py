@@ -7,7 +7,8 @@ roughness^2 and Smith's separable G in both, under one point light; ggx_grid_doc
 BRDF as a plugin, below); tests/scenes_for_tests.closed_box(), a closed Lambert room with a box in
 it under one point light (Mitsuba's diffuse BSDF), for the convergence tests of
 tests/test_convergence.py. rtlab's own loader or builder makes the geometry, the light and the
-camera; Mitsuba does all the shading. Each image is written as float16 (H, W, 3) linear
+camera; Mitsuba does all the shading (ggx_spheres_map: under an environment map, Mitsuba's
+envmap, which reads equirectangular maps as rtlab does). Each image is written as float16 (H, W, 3) linear
 radiance, with a box pixel filter (what rtlab's jittered frames accumulate to).
 """
 from __future__ import annotations
@@ -26,6 +27,8 @@ CASES = {
     # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, BSDF: conductor, gltf or diffuse)
     "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, "conductor"),  # the point light alone: direct light
     "ggx_spheres_env": ("spheres", 0.5, 4, 4096, "conductor"),  # and a constant sky, 3 bounces (max_bounces=3)
+    # and an environment map with a small bright sun (scenes_for_tests.sun_patch_map), 3 bounces
+    "ggx_spheres_map": ("spheres", "sun_patch_map", 4, 2048, "conductor"),
     "ggx_grid_direct": ("grid", 0.0, 2, 256, "gltf"),
     "ggx_grid_env": ("grid", 0.5, 3, 1024, "gltf"),  # 2 bounces (reference.max_bounces=2)
     "box_direct": ("box", 0.0, 2, 4096, "diffuse"),  # direct light
@@ -152,7 +155,9 @@ def mitsuba_scene(scene, env: float, max_depth: int, spp: int, kind: str, size: 
                     "sampler": {"type": "independent", "sample_count": spp}},
          "light": {"type": "point", "position": list(light.position),
                    "intensity": {"type": "rgb", "value": [float(c) for c in light.radiance_scale]}}}
-    if env > 0:
+    if isinstance(env, str):  # an EXR file: Mitsuba's envmap reads it as rtlab's env=FILE does
+        d["env"] = {"type": "envmap", "filename": env}
+    elif env > 0:
         d["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": [env] * 3}}
     d.update(shapes)
     return d
@@ -179,8 +184,14 @@ def main() -> int:
     for name, (key, env, depth, spp, kind) in CASES.items():
         if only and name not in only:
             continue
-        d = mitsuba_scene(scenes[key], env, depth, spp, kind, SIZES[key])
-        image = np.asarray(mi.render(mi.load_dict(d)), np.float32)[..., :3]
+        with tempfile.TemporaryDirectory() as maps_folder:
+            if isinstance(env, str):  # a map of tests/scenes_for_tests.py, written as EXR
+                import tests.scenes_for_tests as maps
+                from tests.test_envmap import write_exr
+
+                env = write_exr(Path(maps_folder) / f"{env}.exr", getattr(maps, env)())
+            d = mitsuba_scene(scenes[key], env, depth, spp, kind, SIZES[key])
+            image = np.asarray(mi.render(mi.load_dict(d)), np.float32)[..., :3]
         out = ROOT / "tests" / "refs" / f"{name}.npy"
         np.save(out, image.astype(np.float16))
         print(f"{out.relative_to(ROOT)}: {image.shape}, mean {image.mean():.4f}")
