@@ -1,7 +1,8 @@
 #version 430
 #include "common.glsl"
 // Forward-rendered baseline: all analytic lights + proxy lights for emissive surfaces,
-// shadow maps with PCF, SSAO on the ambient term, environment cube map reflections.
+// shadow maps with PCF, SSAO on the ambient term, environment cube map reflections; under glTF's
+// BRDF the environment's specular light by the split sum (app/raster/split_sum.py).
 // Lambertian albedo/pi, irradiance I cos / d^2: the same conventions as the ray-traced passes.
 in vec3 v_position;
 in vec3 v_normal;
@@ -36,6 +37,10 @@ uniform sampler2D ssao;
 uniform int use_ssao;
 uniform samplerCube env_cube;
 uniform int use_env_reflections;
+uniform sampler2DArray specular_maps;  // the environment prefiltered per roughness (app/raster/split_sum.py)
+uniform sampler2D brdf_lut;            // A, B of the specular albedo f0 A + B, by n.v (s) and roughness (t)
+uniform int use_split_sum;
+const int SPECULAR_LEVELS = 6;
 uniform float roughness_threshold;
 uniform int use_shadows;
 uniform int use_ggx;               // glTF's metal-rough BRDF (option brdf), else the study's Lambert
@@ -101,6 +106,15 @@ float point_visibility(int slot, vec3 light_pos, vec3 p, vec3 ng, float near, fl
     vec2 lo = vec2(face, slot) * tile + texel * 0.5, hi = vec2(face + 1, slot + 1) * tile - texel * 0.5;
     vec2 uv = (vec2(face, slot) + (ndc * 0.5 + 0.5)) * tile;
     return pcf(point_shadow, vec3(uv, depth - 0.0002), lo, hi);
+}
+
+// the split sum's first factor: the environment averaged over the GGX lobe of this roughness
+// about the reflection direction r, between the two nearest prefiltered layers
+vec3 prefiltered(vec3 r, float roughness) {
+    vec2 uv = vec2(atan(r.x, -r.z) * 0.15915494309189535, acos(clamp(r.y, -1.0, 1.0)) * 0.3183098861837907);
+    float x = clamp(roughness, 0.0, 1.0) * float(SPECULAR_LEVELS - 1);
+    float k = min(floor(x), float(SPECULAR_LEVELS - 2));
+    return mix(texture(specular_maps, vec3(uv, k)).rgb, texture(specular_maps, vec3(uv, k + 1.0)).rgb, x - k);
 }
 
 void main() {
@@ -171,7 +185,11 @@ void main() {
             color += fresnel * rt.rgb;
         else if (use_env_reflections == 1 && m.roughness < roughness_threshold)
             color += fresnel * texture(env_cube, reflect(-v, n)).rgb;
-        else
+        else if (use_split_sum == 1) {  // the split sum, shadowed as the diffuse ambient is (SSAO, glTF occlusion)
+            vec2 ab = texture(brdf_lut, vec2(max(dot(n, v), 0.0), m.roughness)).rg;
+            color += prefiltered(reflect(-v, n), m.roughness) * (f0 * ab.x + ab.y) * ambient_scale * occlusion
+                     * m.occlusion;
+        } else
             color += f_avg * incoming;
         radiance = vec4(m.emissive + color, 1.0);
         return;

@@ -49,6 +49,7 @@ class ForwardLightingPass(Pass):
         self.targets = Targets(ctx, {"radiance": (4, "f4")})
         self.ubo = ctx.buffer(reserve=128 * 64)
         self.dummy_ao = ctx.texture((1, 1), 1, np.ones(1, "f4").tobytes(), dtype="f4")
+        self.dummy_layers = ctx.texture_array((1, 1, 1), 3, np.zeros(3, "f4").tobytes(), dtype="f4")
 
     def execute(self, frame) -> None:
         rt_inputs = {name: frame.channels[name] for name in RT_INPUTS if name in frame.channels}
@@ -85,7 +86,11 @@ class ForwardLightingPass(Pass):
             set_uniform(prog, "ambient_scale", float(opts.ambient))
             _, irradiance = frame.gpu.environment_map(env)
             set_uniform(prog, "use_irradiance_cube", int(irradiance is not None))
+            ggx = frame.scene.uses_ggx(frame.options.get("brdf"))
+            specular, brdf_lut = frame.gpu.specular_light(env) if ggx else (None, None)
+            set_uniform(prog, "use_split_sum", int(specular is not None and "rt_indirect" not in rt_inputs))
             textures = {"ambient_lut": lut, "env_cube": cube, "irradiance_cube": irradiance or cube,
+                        "specular_maps": specular or self.dummy_layers, "brdf_lut": brdf_lut or self.dummy_ao,
                         "ssao": frame.channels.get("ssao", self.dummy_ao) if use_ssao else self.dummy_ao,
                         "sun_shadow": frame.channels["sun_shadow"], "point_shadow": frame.channels["point_shadow"]}
             for name, tex in textures.items():
@@ -102,7 +107,7 @@ class ForwardLightingPass(Pass):
             set_uniform(prog, "use_env_reflections", int(opts.env_reflections))
             set_uniform(prog, "roughness_threshold", float(opts.roughness_threshold))
             set_uniform(prog, "use_shadows", int(opts.shadow_maps))
-            set_uniform(prog, "use_ggx", int(frame.scene.uses_ggx(frame.options.get("brdf"))))
+            set_uniform(prog, "use_ggx", int(ggx))
             set_uniform(prog, "sun_view_proj", shadow_info["sun_view_proj"].T.astype(np.float32))
             set_uniform(prog, "sun_slot", int(shadow_info["sun_slot"]))
             set_uniform(prog, "sun_texel", float(shadow_info["sun_texel"]))
@@ -131,3 +136,4 @@ class ForwardLightingPass(Pass):
         self.targets.release()
         self.ubo.release()
         self.dummy_ao.release()
+        self.dummy_layers.release()

@@ -113,6 +113,7 @@ class GpuScene:
         self.ambient_lut = None
         self.env_map = self.env_irradiance = None  # a map's texels and irradiance (environment_map)
         self.env_pixels = None  # the map they were made from
+        self.env_specular = self.brdf_lut = None  # split-sum image-based specular (specular_light)
         self.proxies = emissive_proxy_lights(scene)
 
     def _upload_materials(self) -> None:
@@ -194,10 +195,10 @@ class GpuScene:
         key = (env.kind, tuple(env.color), env.strength, env.rotation)
         if key != self.env_key or env.pixels is not self.env_pixels:  # the array itself: an id can be reused
             data = env.radiance(cube_directions(size)).astype("f4")
-            for obj in (self.env_cube, self.ambient_lut, self.env_map, self.env_irradiance):
+            for obj in (self.env_cube, self.ambient_lut, self.env_map, self.env_irradiance, self.env_specular):
                 if obj is not None:
                     obj.release()
-            self.env_map = self.env_irradiance = None
+            self.env_map = self.env_irradiance = self.env_specular = None
             self.env_cube = self.ctx.texture_cube((size, size), 3, data.tobytes(), dtype="f4")
             self.env_cube.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
             lut = ambient_lut(env)
@@ -221,10 +222,32 @@ class GpuScene:
         self.environment_maps(env)
         return self.env_map, self.env_irradiance
 
+    def specular_light(self, env: Environment) -> tuple:
+        """The split-sum textures (app/raster/split_sum.py): the environment prefiltered per
+        roughness (a texture array, one equirectangular layer a roughness) and the BRDF's lookup
+        table; Nones under a black environment. Made once per environment (environment_maps)."""
+        from app.raster import split_sum
+
+        self.environment_maps(env)
+        if env.kind == "black":
+            return None, None
+        if self.env_specular is None:
+            layers = split_sum.specular_maps(env)
+            self.env_specular = self.ctx.texture_array((*split_sum.SPECULAR_SIZE, split_sum.SPECULAR_LEVELS), 3,
+                                                       layers.tobytes(), dtype="f4")
+            self.env_specular.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self.env_specular.repeat_y = False
+        if self.brdf_lut is None:
+            lut = split_sum.brdf_lut()
+            self.brdf_lut = self.ctx.texture(lut.shape[1::-1], 2, lut.tobytes(), dtype="f4")
+            self.brdf_lut.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self.brdf_lut.repeat_x = self.brdf_lut.repeat_y = False
+        return self.env_specular, self.brdf_lut
+
     def release(self) -> None:
         for obj in (self.vbo_pos, self.vbo_nrm, self.vbo_uv, self.vbo_tan, self.vbo_col, self.ibo, self.tri_materials,
                     self.material_table, self.textures, self.env_cube, self.ambient_lut, self.env_map,
-                    self.env_irradiance):
+                    self.env_irradiance, self.env_specular, self.brdf_lut):
             if obj is not None:
                 obj.release()
         for _, vao in self._vaos.values():
