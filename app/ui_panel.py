@@ -15,7 +15,7 @@ KEYS_HELP = [
     ("W A S D", "move"), ("Q / E", "down / up"), ("right mouse drag", "look"), ("Shift / Ctrl", "faster / slower"),
     ("scroll wheel", "change speed"), ("1 - 9", "camera bookmarks"), ("F12", "screenshot (PNG + .npy)"),
     ("G or F2", "hide / show UI"), ("P", "profiler"), ("R", "reset accumulation"), ("F1 or H", "this help"),
-    ("left mouse drag", "the split view's divider"), ("drop a file", "open a .gltf/.glb/.obj/.ply scene"),
+    ("left mouse drag", "the split view's divider"), ("drop a file", "open a .gltf/.glb/.obj/.ply/.fbx scene"),
     ("Esc", "quit"),
 ]
 PANEL_WIDTH = 460
@@ -212,9 +212,11 @@ class Panel:
         try:
             from imgui_bundle import portable_file_dialogs as pfd
 
+            from scenes.loaders import EXTENSIONS
+
             if not pfd.settings.available():
                 raise RuntimeError
-            picked = pfd.open_file("Open a scene", "", ["Scenes", "*.gltf *.glb *.obj *.ply"]).result()
+            picked = pfd.open_file("Open a scene", "", ["Scenes", " ".join(f"*{e}" for e in EXTENSIONS)]).result()
         except Exception:  # noqa: BLE001 - no dialog program on this system
             self.error = "no file dialog here (install zenity or kdialog): type a path or drop a file on the window"
             return

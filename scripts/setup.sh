@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs what rtlab needs on a fresh Debian/Ubuntu machine: Mesa EGL/GL, Xvfb and xdotool
-# (window tests), then the Python package with its dev extra. Safe to run again.
+# (window tests), Assimp (FBX), then the Python package with its dev extra. Safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/python.sh
@@ -11,6 +11,7 @@ ldconfig -p 2>/dev/null | grep -q 'libGLX_mesa.so.0 ' || missing+=(libglx-mesa0)
 [ -d /usr/lib/x86_64-linux-gnu/dri ] || [ -d /usr/lib/aarch64-linux-gnu/dri ] || missing+=(libgl1-mesa-dri)
 command -v Xvfb >/dev/null || missing+=(xvfb)
 command -v xdotool >/dev/null || missing+=(xdotool)
+ldconfig -p 2>/dev/null | grep -q 'libassimp.so.5 ' || missing+=(libassimp5)  # FBX and Assimp's formats (pyassimp)
 if [ ${#missing[@]} -gt 0 ]; then
     if command -v apt-get >/dev/null; then
         SUDO=""
@@ -19,7 +20,7 @@ if [ ${#missing[@]} -gt 0 ]; then
         $SUDO apt-get update -qq
         DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
     else
-        echo "setup: please install ${missing[*]} (Mesa EGL/GL, Xvfb, xdotool) with your package manager" >&2
+        echo "setup: please install ${missing[*]} (Mesa EGL/GL, Xvfb, xdotool, Assimp) with your package manager" >&2
     fi
 fi
 
@@ -41,7 +42,7 @@ if command -v apt-get >/dev/null && [ "${mesa%%.*}" != "25" ] && [ "${mesa%%.*}"
 fi
 
 # (re)install when a package is missing or `app` resolves to another checkout
-if ! $PY -I -c "import sys, app, core, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, numba, matplotlib, flip_evaluator, slangpy, hypothesis, pytest, xdist, imagecodecs, OpenEXR
+if ! $PY -I -c "import sys, app, core, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, numba, matplotlib, flip_evaluator, slangpy, hypothesis, pytest, xdist, imagecodecs, OpenEXR, pyassimp
 sys.exit(0 if app.__file__.startswith('$PWD/') else 1)" 2>/dev/null; then
     echo "setup: installing rtlab and its Python dependencies"
     $PY -m pip install -q --disable-pip-version-check -e '.[dev]'

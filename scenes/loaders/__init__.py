@@ -1,6 +1,8 @@
-"""Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply). Files are read by
-rtlab's own readers, which check every value before use (scenes/loaders/checks.py); a file
-with no lights of its own opens under the studio environment."""
+"""Load a scene by built-in name or file path (.gltf, .glb, .obj, .ply; .fbx and Assimp's other
+formats). glTF, OBJ and PLY are read by rtlab's own readers, which check every value before use
+(scenes/loaders/checks.py); FBX and the rest by Assimp in a child process (scenes/loaders/
+assimp.py), whose arrays are checked the same way; a file with no lights of its own opens under
+the studio environment."""
 from __future__ import annotations
 
 import warnings
@@ -11,9 +13,10 @@ import numpy as np
 from core.errors import UserError
 from scenes.builtin import is_builtin
 from scenes.cache import load_cached
+from scenes.loaders.assimp import EXTENSIONS as ASSIMP_EXTENSIONS
 from scenes.model import Environment
 
-EXTENSIONS = (".gltf", ".glb", ".obj", ".ply")
+EXTENSIONS = (".gltf", ".glb", ".obj", ".ply") + ASSIMP_EXTENSIONS
 
 
 def load_scene(spec: str):
@@ -62,6 +65,8 @@ def _load(spec: str):
         from scenes.loaders.gltf import load_gltf as read
     elif ext == ".obj":
         from scenes.loaders.obj import load_obj as read
-    else:
+    elif ext == ".ply":
         from scenes.loaders.ply import load_ply as read
+    else:
+        from scenes.loaders.assimp import load_assimp as read
     return load_cached(path, read)  # big files: read once, then from rtlab's cache
