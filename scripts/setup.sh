@@ -42,7 +42,7 @@ if command -v apt-get >/dev/null && [ "${mesa%%.*}" != "25" ] && [ "${mesa%%.*}"
 fi
 
 # (re)install when a package is missing or `app` resolves to another checkout
-if ! $PY -I -c "import sys, app, core, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, numba, matplotlib, flip_evaluator, slangpy, hypothesis, pytest, xdist, imagecodecs, OpenEXR, pyassimp
+if ! $PY -I -c "import sys, app, core, rt, scenes, moderngl, embreex, imgui_bundle, PIL, trimesh, numba, matplotlib, flip_evaluator, slangpy, hypothesis, pytest, xdist, imagecodecs, OpenEXR, pyassimp, assimp_py
 sys.exit(0 if app.__file__.startswith('$PWD/') else 1)" 2>/dev/null; then
     echo "setup: installing rtlab and its Python dependencies"
     $PY -m pip install -q --disable-pip-version-check -e '.[dev]'

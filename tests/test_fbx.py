@@ -18,6 +18,7 @@ from tests.gltf_writer import mesh_scene, uv_sphere, write_gltf
 from tests.test_rt import run
 
 pytest.importorskip("pyassimp")
+pytest.importorskip("assimp_py")
 ASSETS = Path(__file__).resolve().parents[2] / "shared" / "assets"
 EXPORT = """
 import sys, pyassimp

@@ -1,8 +1,9 @@
 """The Assimp importer in a process of its own (scenes/loaders/assimp.py starts it): reads one
-scene file with pyassimp (Assimp's own Python binding over the system's libassimp), walks its
-node hierarchy and writes what rtlab needs into an .npz: the triangles in world space
-(positions, normals, uvs, indices, material per triangle) and, as JSON, the materials (the
-numbers and the texture paths the file names), lights and cameras with their world transforms.
+scene file and writes what rtlab needs into an .npz: the triangles in world space (positions,
+normals, uvs, indices, material per triangle), through assimp-py (a self-contained Assimp whose
+C++ binding hands back arrays), and as JSON the materials (the numbers and the texture paths
+the file names), lights and cameras with their world transforms, through pyassimp (Assimp's own
+binding over the system's libassimp, whose raw structures have all of them).
 A crash, an abort or a hang in the native importer ends this process, not the viewer; a failure
 prints one line on stderr and exits non-zero.
 
@@ -23,10 +24,9 @@ NUMBERS = ("diffuse", "emissive", "opacity", "shininess", "metallicFactor", "rou
            "twosided", "shadingm", "Diffuse", "Emissive")  # capitalised: FBX's legacy properties, as read
 
 
-def _material(m) -> dict:
-    props = dict.items(m.properties)
+def _material(props: dict) -> dict:
     out: dict = {"textures": {}, "unused_textures": []}
-    for (key, semantic), value in props:
+    for (key, semantic), value in dict.items(props):
         if key == "name":
             out["name"] = str(value)
         elif key == "file" and semantic:
@@ -39,84 +39,141 @@ def _material(m) -> dict:
     return out
 
 
-def _world_matrices(root) -> dict:
-    """node name -> (node, its world matrix), depth first without recursion."""
+def _matrix(m) -> np.ndarray:
+    """A pyassimp Matrix4x4 (rows a..d, columns 1..4) as numpy."""
+    return np.array([[getattr(m, f"{r}{c}") for c in "1234"] for r in "abcd"], np.float64)
+
+
+def _text(s) -> str:
+    return bytes(s.data[:s.length]).decode("utf-8", "replace")
+
+
+def _world(root, matrix, children) -> dict:
+    """node name -> (node, its world matrix), depth first without recursion; matrix(node) its
+    local matrix, children(node) its children."""
     out, todo = {}, [(root, np.eye(4))]
     while todo:
         node, parent = todo.pop()
-        m = parent @ np.asarray(node.transformation, np.float64).reshape(4, 4)
-        out.setdefault(node.name, (node, m))
-        todo.extend((c, m) for c in reversed(node.children))
+        m = parent @ matrix(node)
+        out.setdefault(node_name(node), (node, m))
+        todo.extend((c, m) for c in reversed(children(node)))
     return out
 
 
-def read(path: str) -> tuple[dict, dict]:
-    import pyassimp
-    from pyassimp import postprocess as pp
+def node_name(node) -> str:
+    return node.name if hasattr(node, "name") and isinstance(node.name, str) else _text(node.mName)
 
-    flags = (pp.aiProcess_Triangulate | pp.aiProcess_GenSmoothNormals | pp.aiProcess_JoinIdenticalVertices
-             | pp.aiProcess_SortByPType | pp.aiProcess_ValidateDataStructure)
-    with pyassimp.load(path, processing=flags) as sc:
-        meshes = list(sc.meshes)
-        index = {id(m): k for k, m in enumerate(meshes)}
-        nodes = _world_matrices(sc.rootnode)
-        pos, nrm, uvs, idx, mid = [], [], [], [], []
-        count, features = 0, set()
-        for _, (node, m) in nodes.items():
-            for mesh in node.meshes:
-                k = index.get(id(mesh))
-                mesh = meshes[k] if k is not None else mesh
-                faces = np.asarray(mesh.faces)
-                if faces.ndim != 2 or faces.shape[1] != 3 or not len(faces):
-                    continue  # points and lines carry no surface
-                v = np.asarray(mesh.vertices, np.float64)
-                n = np.asarray(mesh.normals, np.float64) if len(mesh.normals) else np.zeros_like(v)
-                tc = np.asarray(mesh.texturecoords)
-                t = tc[0][:, :2] if tc.size else np.zeros((len(v), 2))
-                if tc.ndim == 3 and tc.shape[0] > 1:
-                    features.add("multiple UV sets (the first is used)")
-                if getattr(mesh, "bones", None):
-                    features.add("skinning (the bind pose is drawn)")
-                cof = np.linalg.inv(m[:3, :3]).T if abs(np.linalg.det(m[:3, :3])) > 1e-30 else m[:3, :3]
-                wp = v @ m[:3, :3].T + m[:3, 3]
-                wn = n @ cof.T
-                tri = faces.astype(np.int64)
-                if np.linalg.det(m[:3, :3]) < 0:
-                    tri = tri[:, [0, 2, 1]]
-                pos.append(wp)
-                nrm.append(wn)
-                uvs.append(np.stack([t[:, 0], 1.0 - t[:, 1]], 1))  # Assimp's v points up, the model's down
-                idx.append(tri + count)
-                mid.append(np.full(len(tri), int(mesh.materialindex), np.int64))
-                count += len(v)
-        if getattr(sc, "animations", None):
-            features.add("animation (the first frame's pose is drawn)")
-        lights = []
-        for li in sc.lights:
-            node_m = nodes.get(li.name, (None, np.eye(4)))[1]
-            kind = LIGHT_KINDS.get(int(li.type))
+
+def read_metadata(path: str, flags: int) -> dict:
+    """The materials, lights and cameras (in world space) through pyassimp's raw structures: its
+    own conversion of every mesh into Python objects is slow (18 s for 1.3 M triangles)."""
+    from pyassimp.core import _assimp_lib, _get_properties
+
+    model = _assimp_lib.load(path.encode(sys.getfilesystemencoding()), flags)
+    if not model:
+        raise RuntimeError("cannot import the file")
+    try:
+        sc = model.contents
+        nodes = _world(sc.mRootNode.contents, lambda n: _matrix(n.mTransformation),
+                       lambda n: [n.mChildren[i].contents for i in range(n.mNumChildren)])
+        materials = []
+        for i in range(sc.mNumMaterials):
+            mat = sc.mMaterials[i].contents
+            materials.append(_material(_get_properties(mat.mProperties, mat.mNumProperties)))
+        lights, features = [], set()
+        for i in range(sc.mNumLights):
+            li = sc.mLights[i].contents
+            name = _text(li.mName)
+            m = nodes.get(name, (None, np.eye(4)))[1]
+            kind = LIGHT_KINDS.get(int(li.mType))
             if kind is None:
-                features.add("area or ambient lights")
+                features.add("area or ambient lights (left out)")
                 continue
-            p = node_m @ np.append(np.asarray(li.position, np.float64), 1.0)
-            d = node_m[:3, :3] @ np.asarray(li.direction, np.float64)
-            lights.append({"kind": kind, "name": str(li.name), "position": p[:3].tolist(), "direction": d.tolist(),
-                           "color": np.asarray(li.color_diffuse, np.float64).tolist(),
-                           "inner": float(li.angleinnercone), "outer": float(li.angleoutercone)})
+            v3 = lambda v: np.array([v.x, v.y, v.z], np.float64)  # noqa: E731
+            p = m @ np.append(v3(li.mPosition), 1.0)
+            c = li.mColorDiffuse
+            lights.append({"kind": kind, "name": name, "position": p[:3].tolist(),
+                           "direction": (m[:3, :3] @ v3(li.mDirection)).tolist(), "color": [c.r, c.g, c.b],
+                           "inner": float(li.mAngleInnerCone), "outer": float(li.mAngleOuterCone)})
         cameras = []
-        for c in sc.cameras:
-            node_m = nodes.get(c.name, (None, np.eye(4)))[1]
-            eye = node_m @ np.append(np.asarray(c.position, np.float64), 1.0)
-            look = node_m[:3, :3] @ np.asarray(c.lookat, np.float64)
-            up = node_m[:3, :3] @ np.asarray(c.up, np.float64)
-            cameras.append({"name": str(c.name), "eye": eye[:3].tolist(), "look": look.tolist(), "up": up.tolist(),
-                            "hfov": float(c.horizontalfov), "aspect": float(c.aspect)})
-        meta = {"materials": [_material(m) for m in sc.materials], "lights": lights, "cameras": cameras,
-                "features": sorted(features)}
+        for i in range(sc.mNumCameras):
+            cam = sc.mCameras[i].contents
+            name = _text(cam.mName)
+            m = nodes.get(name, (None, np.eye(4)))[1]
+            v3 = lambda v: np.array([v.x, v.y, v.z], np.float64)  # noqa: E731
+            eye = m @ np.append(v3(cam.mPosition), 1.0)
+            cameras.append({"name": name, "eye": eye[:3].tolist(), "look": (m[:3, :3] @ v3(cam.mLookAt)).tolist(),
+                            "up": (m[:3, :3] @ v3(cam.mUp)).tolist(), "hfov": float(cam.mHorizontalFOV),
+                            "aspect": float(cam.mAspect)})
+        if sc.mNumAnimations:
+            features.add("animation (the first frame's pose is drawn)")
+        return {"materials": materials, "lights": lights, "cameras": cameras, "features": features,
+                "material_names": [m.get("name", "") for m in materials]}
+    finally:
+        _assimp_lib.release(model)
+
+
+def read_geometry(path: str) -> tuple[dict, list[str], set]:
+    """The triangles in world space through assimp-py (Assimp in C++, arrays without a Python
+    loop), walking its node tree; and the names of the materials its meshes index."""
+    import assimp_py as ai
+
+    flags = (ai.Process_Triangulate | ai.Process_GenSmoothNormals | ai.Process_JoinIdenticalVertices
+             | ai.Process_SortByPType | ai.Process_ValidateDataStructure)
+    sc = ai.import_file(path, flags)
+    meshes = sc.meshes
+    nodes = _world(sc.root_node, lambda n: np.asarray(n.transformation, np.float64).reshape(4, 4),
+                   lambda n: list(n.children))
+    pos, nrm, uvs, idx, mid = [], [], [], [], []
+    count, features = 0, set()
+    for _, (node, m) in nodes.items():
+        for k in node.mesh_indices:
+            mesh = meshes[k]
+            if not mesh.num_faces or mesh.num_indices != 3 * mesh.num_faces:
+                continue  # points and lines carry no surface
+            v = np.frombuffer(mesh.vertices, np.float32).reshape(-1, 3).astype(np.float64)
+            n = np.frombuffer(mesh.normals, np.float32).reshape(-1, 3).astype(np.float64) \
+                if mesh.normals is not None else np.zeros_like(v)
+            tc = mesh.texcoords or []
+            t = np.asarray(tc[0], np.float32).reshape(len(v), -1)[:, :2] if tc else np.zeros((len(v), 2))
+            if len(tc) > 1:
+                features.add("multiple UV sets (the first is used)")
+            cof = np.linalg.inv(m[:3, :3]).T if abs(np.linalg.det(m[:3, :3])) > 1e-30 else m[:3, :3]
+            tri = np.frombuffer(mesh.indices, np.uint32).reshape(-1, 3).astype(np.int64)
+            if np.linalg.det(m[:3, :3]) < 0:
+                tri = tri[:, [0, 2, 1]]
+            pos.append(v @ m[:3, :3].T + m[:3, 3])
+            nrm.append(n @ cof.T)
+            uvs.append(np.stack([t[:, 0], 1.0 - t[:, 1]], 1))  # Assimp's v points up, the model's down
+            idx.append(tri + count)
+            mid.append(np.full(len(tri), int(mesh.material_index), np.int64))
+            count += len(v)
     cat = (lambda a, shape: np.concatenate(a) if a else np.zeros(shape))  # noqa: E731
     arrays = {"positions": cat(pos, (0, 3)).astype(np.float32), "normals": cat(nrm, (0, 3)).astype(np.float32),
               "uvs": cat(uvs, (0, 2)).astype(np.float32), "indices": cat(idx, (0, 3)).astype(np.int64),
               "material_ids": cat(mid, (0,)).astype(np.int64)}
+    return arrays, [str(m.get("NAME", "")) for m in sc.materials], features
+
+
+def read(path: str) -> tuple[dict, dict]:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pyassimp import postprocess as pp
+
+    with ThreadPoolExecutor(1) as pool:  # both parse the file; pyassimp's native call leaves the GIL to the other
+        later = pool.submit(read_metadata, path, pp.aiProcess_ValidateDataStructure)
+        arrays, names, features = read_geometry(path)
+        meta = later.result()
+    mine = meta.pop("material_names")
+    if names != mine:  # the two readers (two Assimp versions) list materials differently: match by name
+        remap = []
+        for n in names:
+            if n not in mine:  # one the metadata reader does not have: a plain material of that name
+                mine.append(n)
+                meta["materials"].append({"name": n, "textures": {}, "unused_textures": []})
+            remap.append(mine.index(n))
+        arrays["material_ids"] = np.asarray(remap or [0], np.int64)[arrays["material_ids"]]
+    meta["features"] = sorted(features | meta["features"])
     return arrays, meta
 
 
@@ -135,11 +192,12 @@ def _reason(e: BaseException) -> str:
 def main(argv: list[str]) -> int:
     src, out = argv
     try:
+        import assimp_py  # noqa: F401
         import pyassimp
         import pyassimp.errors
     except Exception as e:  # noqa: BLE001 - a missing library shows as many kinds of error
-        print(f"Assimp is not installed ({type(e).__name__}): apt install libassimp5 and pip install pyassimp",
-              file=sys.stderr)
+        print(f"Assimp is not installed ({type(e).__name__}: {str(e)[:80]}): apt install libassimp5, "
+              "pip install pyassimp assimp-py", file=sys.stderr)
         return 3
     try:
         arrays, meta = read(src)
