@@ -197,3 +197,30 @@ def test_cli_opens_an_fbx(tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert out.stat().st_size > 0
+
+
+def test_collada_light_and_camera_reach_the_scene(gl, tmp_path):
+    """tests/data/lit_floor.dae (written by hand: Assimp's exporters abort on scenes with
+    lights): a grey Lambert floor under a point light of colour (10, 8, 6) in a translated node,
+    seen from a rotated camera node. The light lands where its node puts it and lights the floor
+    as albedo / pi x I cos / d^2 (I: the file's colour, W/sr); the camera becomes the default view."""
+    path = tmp_path / "lit_floor.dae"
+    shutil.copy(Path(__file__).parent / "data" / "lit_floor.dae", path)
+    scene = load_scene(str(path))
+    assert len(scene.lights) == 1 and scene.lights[0].kind == "point"
+    light = scene.lights[0]
+    np.testing.assert_allclose(light.position, (0.5, 2.0, 0.0), atol=1e-5)
+    np.testing.assert_allclose(light.radiance_scale, (10.0, 8.0, 6.0), rtol=1e-5)
+    view = scene.default_view()
+    np.testing.assert_allclose(view.eye, (0.0, 3.0, 5.0), atol=1e-4)
+    direction = np.subtract(view.target, view.eye)
+    np.testing.assert_allclose(direction / np.linalg.norm(direction), np.array([0, -3, -5]) / np.sqrt(34), atol=1e-4)
+    cam = Camera.from_view(view, scene.diagonal)
+    pos = run(gl, scene, "position", size=(48, 32), camera=cam).astype(np.float64)
+    got = run(gl, scene, "shadows", size=(48, 32), camera=cam, sets=("env=black", "jitter=false"))
+    floor = (np.abs(pos[..., 0]) < 1.8) & (np.abs(pos[..., 2]) < 1.8) & (np.abs(pos).sum(-1) > 0)
+    to_light = np.asarray(light.position) - pos
+    d2 = (to_light ** 2).sum(-1)
+    want = 0.5 / np.pi * (np.array([10.0, 8.0, 6.0]) * (to_light[..., 1] / d2 ** 1.5)[..., None])
+    assert floor.sum() > 300
+    np.testing.assert_allclose(got[floor][:, :3], want[floor], rtol=0.01, atol=1e-4)

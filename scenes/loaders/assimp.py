@@ -223,8 +223,11 @@ def _views(cameras: list) -> dict:
         if np.linalg.norm(look) < 1e-12:
             continue
         aspect = c["aspect"] if c["aspect"] > 0 else 16 / 9
-        half = float(np.clip(c["hfov"], 1e-3, 3.0))  # Assimp: half the horizontal angle
-        fov = float(np.degrees(2 * np.arctan(np.tan(half) / aspect)))
+        half = c["hfov"]  # Assimp: half the horizontal angle
+        if 0.01 < half < 1.5:
+            fov = float(np.degrees(2 * np.arctan(np.tan(half) / aspect)))
+        else:  # none given, or not believable (Assimp 5.2's COLLADA reader converts it twice)
+            fov = View("", (0, 0, 0), (0, 0, 1)).fov
         name = c["name"] or f"camera{k}"
         views[name] = View(name, tuple(eye.tolist()), tuple((eye + look).tolist()), tuple(up.tolist()),
                            float(np.clip(fov, 1.0, 170.0)))
