@@ -112,3 +112,13 @@ def _luminance_grid(environment) -> np.ndarray:
         lum = np.pad(lum, ((0, h - lum.shape[0]), (0, w - lum.shape[1])), mode="edge")
         lum = lum.reshape(h // f, f, w // f, f).mean(axis=(1, 3))
     return lum
+
+
+_NO_DISTRIBUTION = (np.array([0.0, 1.0], np.float32), np.int64(0), np.int64(0))
+
+
+def env_dist_args(environment) -> tuple:
+    """A map's distribution as the Embree kernels take it (rt/embree/env_light.py): (cdf,
+    cells u, cells v); cells 0 where the environment is not sampled by importance."""
+    dist = env_distribution(environment)
+    return _NO_DISTRIBUTION if dist is None else (dist.cdf, np.int64(dist.width), np.int64(dist.height))

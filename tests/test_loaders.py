@@ -79,8 +79,8 @@ def _bad_cases(tmp_path):
     doc, blob = quad_document("data")
     cases = {}
     cases["missing"] = (str(tmp_path / "nope.gltf"), "no such file")
-    (tmp_path / "x.fbx").write_text("x")
-    cases["extension"] = (str(tmp_path / "x.fbx"), "unsupported file type")
+    (tmp_path / "x.step").write_text("x")
+    cases["extension"] = (str(tmp_path / "x.step"), "unsupported file type")
     (tmp_path / "broken.gltf").write_text('{"asset": {"version": "2.0"}, "nodes": [')
     cases["malformed json"] = (str(tmp_path / "broken.gltf"), "malformed glTF JSON")
     good = write_glb(tmp_path / "good.glb", *quad_document(None))

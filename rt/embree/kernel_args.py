@@ -37,9 +37,10 @@ class FrameArgsType(types.StructRef):
 
 
 class FrameArgs(structref.StructRefProxy):
-    def __new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, target, out, aux):
+    def __new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target,
+                out, aux):
         return structref.StructRefProxy.__new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic,
-                                                emissive, env, target, out, aux)
+                                                emissive, env, env_dist, target, out, aux)
 
 
 structref.define_proxy(FrameArgs, FrameArgsType, [
@@ -48,6 +49,7 @@ structref.define_proxy(FrameArgs, FrameArgsType, [
     "view_dir",  # (N, 3) unit directions from the eye, every pixel
     "p", "n", "ng", "albedo", "roughness", "metallic", "emissive",  # (M, ...) the G-buffer's surfaces
     "env",  # the environment (gather.env_args)
+    "env_dist",  # a map's sampling distribution: (cdf, cells u, cells v), cells 0 for the others (env_light.py)
     "target",  # the tracing target (rtcore.target)
     "out",  # (N, 3) radiance, every pixel
     "aux",  # (N, C) the pass's other image, or (0, C): not asked for

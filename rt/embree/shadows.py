@@ -1,11 +1,13 @@
 """Ray-traced shadows: a shadow ray to every light per pixel (`all`), or to one light per
-pixel chosen by its contribution there (`one`, unbiased: accumulates to `all`)."""
+pixel chosen by its contribution there (`one`, unbiased: accumulates to `all`); and where the
+environment is not black one more towards it (env_light.py), its light in the image but not in
+rt_direct (hybrid's forward shading has the environment's own ambient)."""
 from __future__ import annotations
 
 import numpy as np
 
 from rt.effects import STREAM
-from rt.embree import brdf, gather, raygen
+from rt.embree import brdf, env_light, gather, raygen
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block
 
@@ -24,9 +26,9 @@ def shadows_all(counter, bounds, scene, frame, base, grey, ggx):
         if b0 >= pix.shape[0]:
             return traced
         irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-        traced += raygen.direct_all(frame.points, b0, raygen.block_keys(pix, b0, b1, base), scene.lights, 0,
-                                    scene.far, frame.target, irradiance)
-        _finish(frame, b0, b1, irradiance, grey, ggx)
+        keys = raygen.block_keys(pix, b0, b1, base)
+        traced += raygen.direct_all(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, irradiance)
+        traced += _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -40,22 +42,28 @@ def shadows_one(counter, bounds, scene, frame, base, grey, ggx):
         if b0 >= pix.shape[0]:
             return traced
         irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-        traced += raygen.direct_one(frame.points, b0, raygen.block_keys(pix, b0, b1, base), scene.lights, 0,
-                                    scene.far, frame.target, irradiance)
-        _finish(frame, b0, b1, irradiance, grey, ggx)
+        keys = raygen.block_keys(pix, b0, b1, base)
+        traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, irradiance)
+        traced += _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _finish(frame, b0, b1, irradiance, grey, ggx):
-    """A block's pixels from its irradiance (grey: light alone), its irradiance into frame.aux
-    (ggx: its direct radiance, brdf.py), and the uncovered pixels around them."""
+def _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx):
+    """A block's lights' irradiance into frame.aux (ggx: its direct radiance, brdf.py), then the
+    environment's sample added (env_light.py), the block's pixels from the sum (grey: light
+    alone), and the uncovered pixels around them. Returns the environment's rays traced."""
     pix = frame.pix
     albedo, metallic = frame.albedo[b0:b1], frame.metallic[b0:b1]
-    gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, None, grey)
     if frame.aux.shape[0] > 0:
         gather.put_rows(frame.aux, pix[b0:b1],
                         gather.direct_radiance(irradiance, albedo, metallic) if ggx else irradiance)
+    base = np.ones_like(albedo) if grey else albedo
+    metal = np.zeros_like(metallic) if grey else metallic
+    traced = env_light.env_shadow_rays(frame.points, b0, keys, env_light.env_dim(scene.lights[3]), frame.env,
+                                       frame.env_dist, scene.far, frame.target, irradiance, base, metal)
+    gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, None, grey)
     gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
+    return traced
 
 
 def trace(rf) -> dict:

@@ -1,0 +1,166 @@
+"""Direct light from the environment at points, with shadow rays: the shadows pass's sample of
+the sky besides its lights (shaders/rt/shadows.slang does the same on the device). One ray a
+point, its direction drawn by one-sample multiple importance sampling (Veach's balance
+heuristic over a mixture): from a map's distribution (rt/environment.py EnvDistribution, its
+float32 steps) with probability MAP_SHARE, else from the BRDF (a lobe picked ~ its estimated
+weight, as the reference path tracer: GGX's visible normals or the cosine); analytic
+environments (smooth) from the BRDF alone. Its light: the environment's radiance / the mixture's
+density, traced to the far distance and added like a light sample (brdf.add_light: both lobes),
+so that neither a small sun nor a glossy highlight makes fireflies."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rt.embree import brdf, raygen
+from rt.embree import rtcore as embree
+from rt.embree.jit import njit
+from rt.embree.kernels import environment_rgb, environment_terms, uniform
+from rt.layout import GX, GY, GZ, NX, NY, NZ
+
+F = np.float32
+ZERO, ONE = F(0.0), F(1.0)
+PI = F(math.pi)
+INV_PI = F(1.0 / math.pi)
+INV_2PI2 = F(1.0 / (2.0 * math.pi * math.pi))
+LAST_BELOW_ONE = F(0.99999994)
+MAP_SHARE = F(0.5)  # the share of a map's samples drawn from its distribution (the rest: the BRDF's)
+
+
+@njit(cache=True)
+def env_dim(n_lights):
+    """The environment sample's three random dimensions (strategy, direction): after every
+    light's (raygen.direct_all draws 3 a light, direct_one 4), the same in both backends."""
+    return 3 * n_lights + 4
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def map_direction(cdf, cells_u, cells_v, shift, u1, u2):
+    """EnvDistribution.sample for one pair of numbers: (x, y, z, density per solid angle)."""
+    lo, hi = 0, cells_u * cells_v  # the last cell whose cdf lies at or below u1
+    while lo + 1 < hi:
+        mid = (lo + hi) // 2
+        if cdf[mid] <= u1:
+            lo = mid
+        else:
+            hi = mid
+    prob = cdf[lo + 1] - cdf[lo]
+    fx = min(max((u1 - cdf[lo]) / (prob if prob > ZERO else ONE), ZERO), LAST_BELOW_ONE)
+    u = (F(lo % cells_u) + fx) / F(cells_u) - shift
+    theta = PI * ((F(lo // cells_u) + u2) / F(cells_v))
+    phi = F(2.0) * PI * u
+    st = np.sin(theta)
+    density = prob * (F(cells_u * cells_v) * INV_2PI2) / max(st, F(1e-6))
+    return st * np.sin(phi), np.cos(theta), -st * np.cos(phi), density
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def map_density(cdf, cells_u, cells_v, shift, x, y, z):
+    """The density per solid angle with which map_direction draws unit direction (x, y, z)."""
+    u = np.arctan2(x, -z) * F(0.5 / math.pi) + shift
+    u -= np.floor(u)
+    v = np.arccos(min(max(y, -ONE), ONE)) * INV_PI
+    col, row = min(int(u * F(cells_u)), cells_u - 1), min(int(v * F(cells_v)), cells_v - 1)
+    c = row * cells_u + col
+    return (cdf[c + 1] - cdf[c]) * (F(cells_u * cells_v) * INV_2PI2) / max(np.sqrt(max(ONE - y * y, ZERO)), F(1e-6))
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def lobe_share(ggx, acc, i, base, metallic, nx, ny, nz):
+    """The probability of the specular lobe at point i (the reference path tracer's estimate,
+    F at n.v against the diffuse c_diff (1 - F)), 0 for Lambert; and its alpha and view."""
+    if not ggx:
+        return ZERO, ONE, ZERO, ZERO, ONE
+    vx, vy, vz, a = acc[i, brdf.VIEW], acc[i, brdf.VIEW + 1], acc[i, brdf.VIEW + 2], acc[i, brdf.ALPHA]
+    k = ONE - min(max(nx * vx + ny * vy + nz * vz, ZERO), ONE)
+    w = k * k * k * k * k
+    spec = diff = ZERO
+    luma = (F(0.2126), F(0.7152), F(0.0722))
+    for c in range(3):
+        f0 = F(0.04) * (ONE - metallic) + base[c] * metallic
+        f = f0 + (ONE - f0) * w
+        spec += luma[c] * f
+        diff += luma[c] * base[c] * (ONE - metallic) * (ONE - f)
+    return (spec / (spec + diff) if spec + diff > ZERO else ONE), a, vx, vy, vz
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def brdf_density(p_spec, a, vx, vy, vz, nx, ny, nz, x, y, z):
+    """The density with which the BRDF's lobes (picked with p_spec) draw (x, y, z): p_spec x
+    GGX's visible normals reflected (G1(v) D(h) / (4 n.v)) + (1 - p_spec) x the cosine's."""
+    cs = max(nx * x + ny * y + nz * z, ZERO)
+    out = (ONE - p_spec) * cs * INV_PI
+    if p_spec > ZERO:
+        hx, hy, hz = vx + x, vy + y, vz + z
+        hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+        nh = max((nx * hx + ny * hy + nz * hz) / hl, ZERO) if hl > F(1e-12) else ZERO
+        nv = max(nx * vx + ny * vy + nz * vz, brdf.MIN_COS)
+        a2 = a * a
+        t = nh * nh * (a2 - ONE) + ONE
+        out += p_spec * brdf.g1(nv, a) * (a2 * INV_PI / (t * t)) / (F(4.0) * nv)
+    return out
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0,
+              dx, dy, dz, dd, er, eg, eb, nb):
+    cdf, cells_u, cells_v = dist
+    share = MAP_SHARE if cells_u > 0 else ZERO
+    ggx = acc.shape[1] >= brdf.GGX_COLS
+    for j in range(nb):
+        i = b0 + j
+        key = keys[j]
+        u0, u1, u2 = uniform(key, dim), uniform(key, dim + 1), uniform(key, dim + 2)
+        p_spec, a, vx, vy, vz = lobe_share(ggx, acc, i, albedo[i], metallic[i], nx[j], ny[j], nz[j])
+        if u0 < share:
+            x, y, z, p_map = map_direction(cdf, cells_u, cells_v, shift, u1, u2)
+        else:
+            if (u0 - share) / (ONE - share) < p_spec:
+                mx, my, mz = brdf.visible_normal(nx[j], ny[j], nz[j], vx, vy, vz, a, u1, u2)
+                vm = vx * mx + vy * my + vz * mz
+                x, y, z = F(2.0) * vm * mx - vx, F(2.0) * vm * my - vy, F(2.0) * vm * mz - vz
+            else:
+                r = np.sqrt(u1)
+                x, y, z = raygen.about(nx[j], ny[j], nz[j], r * raygen.cos_turns(u2), r * raygen.sin_turns(u2),
+                                       np.sqrt(max(ZERO, ONE - u1)))
+            p_map = map_density(cdf, cells_u, cells_v, shift, x, y, z) if share > ZERO else ZERO
+        density = share * p_map + (ONE - share) * brdf_density(p_spec, a, vx, vy, vz, nx[j], ny[j], nz[j], x, y, z)
+        lr, lg, lb = environment_rgb(x, y, z, terms, texels)
+        inv = ONE / density if density > ZERO else ZERO
+        raygen._light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, lr * inv, lg * inv, lb * inv, dx, dy, dz, dd,
+                          er, eg, eb)
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def env_shadow_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic):
+    """One environment sample a point of G (surface_soa rows, from column g0; keys, acc,
+    albedo, metallic: theirs, from row 0), its shadow ray traced into acc (tr with a scene) or,
+    without one, its light added unshadowed; returns the rays traced. env: gather.env_args;
+    dist: (cdf, cells u, cells v) of a map, cells 0 for the others."""
+    kind, color, horizon, zenith, ground, texels = env
+    n = keys.shape[0]
+    if kind == 0 or n == 0:
+        return 0
+    terms = environment_terms(kind, color, horizon, zenith, ground)
+    shift = F(color[1]) if kind == 3 else ZERO
+    packed = tr[0] == 0
+    size = n if packed else 0
+    origin, direction, tmax = np.empty((size, 3), F), np.empty((size, 3), F), np.empty(size, F)
+    e, idx = np.empty((size, 3), F), np.empty(size, np.int32)
+    blk = np.empty((7, raygen.RUN), F)
+    buf, b = embree.ray_buffer()
+    words = buf.view(np.uint32)
+    m = 0
+    for b0 in range(0, n, raygen.RUN):
+        b1 = min(b0 + raygen.RUN, n)
+        c0, c1 = g0 + b0, g0 + b1
+        _env_step(G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1], G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1],
+                  dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0, blk[0], blk[1], blk[2], blk[3],
+                  blk[4], blk[5], blk[6], b1 - b0)
+        m = raygen._emit(G, g0, b0, b1 - b0, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc,
+                         True)
+    if packed:  # no scene to trace with (never in the shadows pass): the light unshadowed
+        raygen.add_unblocked(acc, idx, direction, e, np.zeros(m, np.bool_), m, G, g0)
+        return 0
+    return m
