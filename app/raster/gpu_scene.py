@@ -79,15 +79,13 @@ def cube_directions(size: int) -> np.ndarray:
 def irradiance_cube(env: Environment, size: int = IRRADIANCE_SIZE, rows: int = 64) -> np.ndarray:
     """Irradiance / pi of an environment towards the normals of a cube map's texels (no
     occlusion): the cosine-weighted integral over a (rows x 2 rows) grid of directions, each
-    weighted by its solid angle, from the environment's own bilinear radiance."""
-    theta = (np.arange(rows) + 0.5) / rows * np.pi
-    phi = (np.arange(2 * rows) + 0.5) / (2 * rows) * 2 * np.pi
-    th, ph = np.meshgrid(theta, phi, indexing="ij")
-    dirs = np.stack([np.sin(th) * np.sin(ph), np.cos(th), -np.sin(th) * np.cos(ph)], -1).reshape(-1, 3)
-    d_omega = (np.sin(th) * (np.pi / rows) * (np.pi / rows)).reshape(-1)  # dtheta = dphi = pi / rows
-    radiance = env.radiance(dirs.astype(np.float32)).astype(np.float64) * d_omega[:, None]
+    weighted by its solid angle; a map averaged over each cell of the grid (split_sum's
+    radiance_grid: a small sun in a large map is not missed), the others at its centres."""
+    from app.raster.split_sum import radiance_grid
+
+    dirs, radiance, omega = radiance_grid(env, rows)
     normals = cube_directions(size).astype(np.float64)
-    return (np.maximum(normals @ dirs.T, 0.0) @ radiance / np.pi).astype(np.float32)
+    return (np.maximum(normals @ dirs.T, 0.0) @ (radiance * omega[:, None]) / np.pi).astype(np.float32)
 
 
 class GpuScene:

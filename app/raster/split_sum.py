@@ -58,7 +58,7 @@ def _area_resample(a: np.ndarray, n: int, axis: int) -> np.ndarray:
     return np.diff(at, axis=axis) / (m / n)
 
 
-def _radiance_grid(env, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def radiance_grid(env, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The environment on a (rows x 2 rows) grid of directions: directions (N,3), radiance
     (N,3) (a map's averaged over each cell, the others' at its centre) and solid angles (N,)."""
     theta = (np.arange(rows) + 0.5) / rows * np.pi
@@ -92,7 +92,7 @@ def specular_maps(env) -> np.ndarray:
         rough = k / (SPECULAR_LEVELS - 1)
         a = max(rough * rough, MIN_ALPHA)
         rows = 128 if a < 0.1 else (64 if a < 0.3 else 32)  # the grid's spacing well inside the lobe
-        dirs, radiance, omega = (x.astype(np.float32) for x in _radiance_grid(env, rows))
+        dirs, radiance, omega = (x.astype(np.float32) for x in radiance_grid(env, rows))
         a = np.float32(a)
         for c0 in range(0, r.shape[0], 256):
             nl = r[c0:c0 + 256].astype(np.float32) @ dirs.T
