@@ -78,6 +78,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="bench", help="output folder (default ./bench)")
     s.add_argument("--quick", action="store_true", help="small smoke run: 160x90, 2 frames, small reference")
     s.add_argument("--perf", action="store_true", help="ray-tracing efficiency, thread scaling, transfers, BVH builds")
+    s.add_argument("--load", nargs="?", const="default", metavar="TRIANGLES,TEXTURES",
+                   help="big scenes: a generated glTF of that many triangles and textures (default 10000000,500; "
+                        "--quick 200000,20): first open, cached reopen, BVH build, device memory, first frame")
     s.add_argument("--perf-sizes", help="sizes for --perf (default 640x360,1280x720)")
     s.add_argument("--perf-rounds", type=int, help="sweeps through the thread counts for --perf's scaling, "
                    "keeping each count's fastest frame (default 2; more on a noisy shared host)")
@@ -183,6 +186,10 @@ def cmd_view(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.load:
+        from app.bench_load import run_load_bench
+
+        return run_load_bench(args)
     if args.perf:
         from app.perf import run_perf
 

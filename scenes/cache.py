@@ -40,7 +40,9 @@ def record_reads():
 
 
 def cache_dir() -> Path:
-    return cache_root() / "scenes"
+    """~/.cache/rtlab/scenes, or $RTLAB_SCENE_CACHE_DIR (bench --load measures cold opens in its own)."""
+    return Path(os.environ["RTLAB_SCENE_CACHE_DIR"]) if os.environ.get("RTLAB_SCENE_CACHE_DIR") else \
+        cache_root() / "scenes"
 
 
 @functools.lru_cache(maxsize=1)

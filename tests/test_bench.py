@@ -153,3 +153,21 @@ def test_reference_accumulates_until_its_halves_agree(gl):
     _, info = converge_reference(r, Camera.from_view(arcade.default_view(), arcade.diagonal), (48, 32), 32, 1e-6)
     r.release()
     assert not info["reached"] and info["frames"] == 32 and info["half_frames"] == 16 and info["half_flip"] > 0.01
+
+
+def test_load_bench_measures_a_generated_big_scene(tmp_path):
+    """bench --load --quick: the generated scene opens with the triangles and textures asked,
+    and every step reports its times (no step failed)."""
+    r = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--load", "--quick", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "load.json").read_text())
+    assert doc["textures"] == 20 and abs(doc["triangles"] - 200_000) < 0.05 * 200_000
+    rows = doc["results"]
+    assert rows["cold"]["load_s"] > 0 and rows["cached"]["load_s"] > 0
+    assert rows["embree"]["build_s"] > 0 and rows["embree"]["first_frame_s"] > 0, rows["embree"]
+    assert all("error" not in row for row in rows.values()), rows
+    from scenes.loaders import load_scene
+
+    scene = load_scene(str(tmp_path / "load_scene_200000_20" / "scene.gltf"))
+    assert sum(m.texture is not None for m in scene.materials) == 20

@@ -19,6 +19,7 @@ class DeviceScene:
         self.lights = LightSet(scene, a)
         if len(a.indices) == 0:
             raise UserError(f"{scene.name}: no triangles to trace")
+        self.device_bytes = 0  # what the scene holds on the device: its buffers and acceleration structures
         try:
             self._upload(spy, a)
             self._build(spy, a)
@@ -32,6 +33,7 @@ class DeviceScene:
         build = spy.BufferUsage.shader_resource | spy.BufferUsage.acceleration_structure_build_input
 
         def buffer(data: np.ndarray, usage=spy.BufferUsage.shader_resource):
+            self.device_bytes += data.nbytes
             return dev.create_buffer(usage=usage, data=np.ascontiguousarray(data))
 
         self.vertices = buffer(a.positions.astype(np.float32), build)
@@ -104,6 +106,7 @@ class DeviceScene:
         desc = spy.AccelerationStructureBuildDesc({"inputs": [build_input],
                                                    "flags": spy.AccelerationStructureBuildFlags.prefer_fast_trace})
         sizes = dev.get_acceleration_structure_sizes(desc)
+        self.device_bytes += sizes.acceleration_structure_size
         structure = dev.create_acceleration_structure(kind=kind, size=sizes.acceleration_structure_size)
         scratch = dev.create_buffer(size=max(sizes.scratch_size, 4), usage=spy.BufferUsage.unordered_access)
         encoder = dev.create_command_encoder()
