@@ -4,8 +4,11 @@ them): positions, per-triangle shading rows, face normals, materials and one fla
 of every texture layer (base colour, occlusion-roughness-metallic, normal, emission)."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
+CHUNK = 1 << 18  # triangles a thread's share of the per-triangle rows
 LAYERS = 4  # texture layers per material: base colour (RGBA), ORM, normal, emission
 LAYER_BASE, LAYER_ORM, LAYER_NORMAL, LAYER_EMISSION = range(LAYERS)
 CORNER_COLUMNS, TANGENT_COLUMNS = 16, 28  # a triangle's row without / with vertex tangents
@@ -22,25 +25,24 @@ class MeshArrays:
         self.uvs = f32(scene.uvs)
         self.indices = np.ascontiguousarray(scene.indices, np.int32)
         self.material_ids = np.ascontiguousarray(scene.material_ids, np.int32)
-        corners = self.positions[self.indices]  # (T, 3 vertices, 3)
-        e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-        cross = np.empty_like(e1)  # e1 x e2, written out: np.cross makes several temporaries
-        cross[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-        cross[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-        cross[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-        self.tri_area = f32(0.5 * length)
-        self.face_normals = f32(cross / np.maximum(length, 1e-30)[:, None])
-        # per triangle: its 3 vertex normals, 3 uvs and material, one 64-byte row (kernels.shade_hits),
-        # then where the scene has normal maps its 3 vertex tangents (xyz, handedness)
+        # per triangle: its area and face normal; its 3 vertex normals, 3 uvs and material, one 64-byte
+        # row (kernels.shade_hits), then where the scene has normal maps its 3 vertex tangents (xyz,
+        # handedness); in chunks on threads (numpy's gathers leave the GIL: 10 M triangles in 2.6 s on one)
         tangents = getattr(scene, "tangents", None)
-        self.corners = np.empty((len(self.indices), CORNER_COLUMNS if tangents is None else TANGENT_COLUMNS),
-                                np.float32)
-        self.corners[:, 0:9] = self.normals[self.indices].reshape(-1, 9)
-        self.corners[:, 9:15] = self.uvs[self.indices].reshape(-1, 6)
-        self.corners[:, 15] = self.material_ids
-        if tangents is not None:
-            self.corners[:, 16:28] = np.asarray(tangents, np.float32)[self.indices].reshape(-1, 12)
+        self._tangents = None if tangents is None else np.asarray(tangents, np.float32)
+        t = len(self.indices)
+        self.tri_area = np.empty(t, np.float32)
+        self.face_normals = np.empty((t, 3), np.float32)
+        self.corners = np.empty((t, CORNER_COLUMNS if tangents is None else TANGENT_COLUMNS), np.float32)
+        chunks = [(lo, min(lo + CHUNK, t)) for lo in range(0, t, CHUNK)]
+        if len(chunks) > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(min(len(chunks), os.cpu_count() or 1)) as pool:
+                list(pool.map(lambda c: self._triangle_rows(*c), chunks))
+        elif chunks:
+            self._triangle_rows(*chunks[0])
+        del self._tangents
         mats = scene.materials
         self.base_color = f32([m.base_color[:3] for m in mats])
         self.roughness = f32([m.roughness for m in mats])
@@ -75,4 +77,23 @@ class MeshArrays:
                            np.ascontiguousarray(np.asarray(colors, np.float32)[self.indices].reshape(-1, 9)))
         diagonal = scene.diagonal  # a pass over every vertex: once
         self.far = np.float32(max(diagonal * 4.0, 1.0))
+
+    def _triangle_rows(self, lo: int, hi: int) -> None:
+        """Triangles lo..hi of tri_area, face_normals and corners."""
+        idx = self.indices[lo:hi]
+        corners = self.positions[idx]  # (n, 3 vertices, 3)
+        e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+        cross = np.empty_like(e1)  # e1 x e2, written out: np.cross makes several temporaries
+        cross[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+        cross[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+        cross[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+        self.tri_area[lo:hi] = 0.5 * length
+        self.face_normals[lo:hi] = cross / np.maximum(length, 1e-30)[:, None]
+        rows = self.corners[lo:hi]
+        rows[:, 0:9] = self.normals[idx].reshape(-1, 9)
+        rows[:, 9:15] = self.uvs[idx].reshape(-1, 6)
+        rows[:, 15] = self.material_ids[lo:hi]
+        if self._tangents is not None:
+            rows[:, 16:28] = self._tangents[idx].reshape(-1, 12)
 
