@@ -24,7 +24,7 @@ def env_args(environment) -> tuple:
     return (kind, color, *GRADIENTS.get(environment.kind, GRADIENTS["sky"]), texels)
 
 
-# ---- sampling the environment by importance (the reference path tracer's light sample) ----------
+# ---- sampling a map by importance (the reference's and the shadows pass's environment samples) ----
 
 MAX_CELLS_U = 1024  # a map's distribution: its luminance averaged over blocks to at most this many columns
 _TWO_PI2 = np.float32(2 * np.pi * np.pi)

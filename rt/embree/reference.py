@@ -112,8 +112,8 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool
     after it counting), then the next direction from one lobe, picked with probability ~ its
     estimated weight: GGX's visible normals (weight F G1(l)) or cosine-weighted (weight
     c_diff (1 - F)). The environment as in trace_paths, its sample weighted against each lobe's
-(mis). Random dimensions as trace_paths: lobe, light (4), environment (2, where sampled),
-direction (2), roulette."""
+    (mis). Random dimensions as trace_paths: lobe, light (4), environment (2, where sampled),
+    direction (2), roulette."""
     radiance = s.emissive.copy()
     beta = np.ones((len(s), 3), np.float32)
     alive = np.arange(len(s))
