@@ -173,6 +173,19 @@ def g1(c, a):
     return F(2.0) * c / (c + np.sqrt(a * a + (ONE - a * a) * c * c))
 
 
+@njit(cache=True, error_model="numpy", fastmath=True)
+def visible_normal_density(nx, ny, nz, vx, vy, vz, lx, ly, lz, a):
+    """The density per solid angle with which l is v reflected about a normal drawn by
+    visible_normal: G1(v) D(h) / (4 n.v) (visible_normal_pdf below for whole arrays)."""
+    hx, hy, hz = vx + lx, vy + ly, vz + lz
+    hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+    nh = max((nx * hx + ny * hy + nz * hz) / hl, ZERO) if hl > F(1e-12) else ZERO
+    nv = max(nx * vx + ny * vy + nz * vz, MIN_COS)
+    a2 = a * a
+    t = nh * nh * (a2 - ONE) + ONE
+    return g1(nv, a) * (a2 * INV_PI / (t * t)) / (F(4.0) * nv)
+
+
 # ---- whole arrays (the reference path tracer, rt/embree/reference.py) -------------------------
 def unit(a):
     return a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-20)

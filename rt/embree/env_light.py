@@ -16,7 +16,7 @@ import numpy as np
 from rt.embree import brdf, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
-from rt.embree.kernels import environment_rgb, environment_terms, uniform
+from rt.embree.kernels import environment_rgb, environment_terms, equirect_uv, uniform
 from rt.layout import GX, GY, GZ, NX, NY, NZ
 
 F = np.float32
@@ -58,9 +58,7 @@ def map_direction(cdf, cells_u, cells_v, shift, u1, u2):
 @njit(cache=True, error_model="numpy", fastmath=True)
 def map_density(cdf, cells_u, cells_v, shift, x, y, z):
     """The density per solid angle with which map_direction draws unit direction (x, y, z)."""
-    u = np.arctan2(x, -z) * F(0.5 / math.pi) + shift
-    u -= np.floor(u)
-    v = np.arccos(min(max(y, -ONE), ONE)) * INV_PI
+    u, v = equirect_uv(x, y, z, shift)
     col, row = min(int(u * F(cells_u)), cells_u - 1), min(int(v * F(cells_v)), cells_v - 1)
     c = row * cells_u + col
     return (cdf[c + 1] - cdf[c]) * (F(cells_u * cells_v) * INV_2PI2) / max(np.sqrt(max(ONE - y * y, ZERO)), F(1e-6))
@@ -82,23 +80,16 @@ def lobe_share(ggx, acc, i, base, metallic, nx, ny, nz):
         f = f0 + (ONE - f0) * w
         spec += luma[c] * f
         diff += luma[c] * base[c] * (ONE - metallic) * (ONE - f)
-    return (spec / (spec + diff) if spec + diff > ZERO else ONE), a, vx, vy, vz
+    return (spec / max(spec + diff, F(1e-12)) if spec + diff > ZERO else ONE), a, vx, vy, vz
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def brdf_density(p_spec, a, vx, vy, vz, nx, ny, nz, x, y, z):
     """The density with which the BRDF's lobes (picked with p_spec) draw (x, y, z): p_spec x
     GGX's visible normals reflected (G1(v) D(h) / (4 n.v)) + (1 - p_spec) x the cosine's."""
-    cs = max(nx * x + ny * y + nz * z, ZERO)
-    out = (ONE - p_spec) * cs * INV_PI
+    out = (ONE - p_spec) * max(nx * x + ny * y + nz * z, ZERO) * INV_PI
     if p_spec > ZERO:
-        hx, hy, hz = vx + x, vy + y, vz + z
-        hl = np.sqrt(hx * hx + hy * hy + hz * hz)
-        nh = max((nx * hx + ny * hy + nz * hz) / hl, ZERO) if hl > F(1e-12) else ZERO
-        nv = max(nx * vx + ny * vy + nz * vz, brdf.MIN_COS)
-        a2 = a * a
-        t = nh * nh * (a2 - ONE) + ONE
-        out += p_spec * brdf.g1(nv, a) * (a2 * INV_PI / (t * t)) / (F(4.0) * nv)
+        out += p_spec * brdf.visible_normal_density(nx, ny, nz, vx, vy, vz, x, y, z, a)
     return out
 
 
@@ -121,9 +112,7 @@ def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far
                 vm = vx * mx + vy * my + vz * mz
                 x, y, z = F(2.0) * vm * mx - vx, F(2.0) * vm * my - vy, F(2.0) * vm * mz - vz
             else:
-                r = np.sqrt(u1)
-                x, y, z = raygen.about(nx[j], ny[j], nz[j], r * raygen.cos_turns(u2), r * raygen.sin_turns(u2),
-                                       np.sqrt(max(ZERO, ONE - u1)))
+                x, y, z = raygen.cosine_about(nx[j], ny[j], nz[j], u1, u2)
             p_map = map_density(cdf, cells_u, cells_v, shift, x, y, z) if share > ZERO else ZERO
         density = share * p_map + (ONE - share) * brdf_density(p_spec, a, vx, vy, vz, nx[j], ny[j], nz[j], x, y, z)
         lr, lg, lb = environment_rgb(x, y, z, terms, texels)

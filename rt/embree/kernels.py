@@ -398,14 +398,22 @@ def environment_terms(kind, color, horizon, zenith, ground):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
+def equirect_uv(x, y, z, shift):
+    """Where a unit direction falls on an equirectangular map turned by `shift` in u (as
+    scenes/model.py's equirect_uv): u = atan2(x, -z) / 2pi + shift (mod 1), v = acos(y) / pi."""
+    one = np.float32(1.0)
+    u = np.float32(np.arctan2(x, -z)) * np.float32(0.15915494309189535) + shift
+    u -= np.floor(u)
+    return u, np.float32(np.arccos(min(max(y, -one), one))) * np.float32(0.3183098861837907)
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
 def env_map_rgb(x, y, z, texels, shift):
     """Bilinear radiance of an equirectangular map towards (x, y, z), read as scenes/model.py's
     equirect_lookup reads it (u wraps, v clamps)."""
     h, w = texels.shape[0], texels.shape[1]
     one = np.float32(1.0)
-    u = np.float32(np.arctan2(x, -z)) * np.float32(0.15915494309189535) + shift
-    u -= np.floor(u)
-    v = np.float32(np.arccos(min(max(y, -one), one))) * np.float32(0.3183098861837907)
+    u, v = equirect_uv(x, y, z, shift)
     fx, fy = u * w - np.float32(0.5), v * h - np.float32(0.5)
     x0, y0 = np.floor(fx), np.floor(fy)
     tx, ty = fx - x0, fy - y0

@@ -236,12 +236,18 @@ def about(nx, ny, nz, x, y, z):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
+def cosine_about(nx, ny, nz, u0, u1):
+    """A cosine-weighted direction about unit n from the numbers u0, u1 (common.slang's
+    cosine_direction)."""
+    r = np.sqrt(u0)
+    return about(nx, ny, nz, r * cos_turns(u1), r * sin_turns(u1), np.sqrt(max(ZERO, ONE - u0)))
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
 def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
     for j in range(nb):
         key = keys[j]
-        u0, u1 = uniform(key, dim), uniform(key, dim + 1)
-        r = np.sqrt(u0)
-        x, y, z = about(nx[j], ny[j], nz[j], r * cos_turns(u1), r * sin_turns(u1), np.sqrt(max(ZERO, ONE - u0)))
+        x, y, z = cosine_about(nx[j], ny[j], nz[j], uniform(key, dim), uniform(key, dim + 1))
         dx[j], dy[j], dz[j] = x, y, z
         keep[j] = gx[j] * x + gy[j] * y + gz[j] * z
 
@@ -270,10 +276,8 @@ def hemisphere_live(G, g0, keys, dim, tmax_value, origin, direction, tmax, idx, 
 def cosine_dirs(N, keys, dim, out):
     """Cosine-weighted directions about N (not packed: some may point below the true surface)."""
     for i in range(N.shape[0]):
-        u0, u1 = uniform(keys[i], dim), uniform(keys[i], dim + 1)
-        r = np.sqrt(u0)
-        out[i, 0], out[i, 1], out[i, 2] = about(N[i, 0], N[i, 1], N[i, 2], r * cos_turns(u1), r * sin_turns(u1),
-                                                np.sqrt(max(ZERO, ONE - u0)))
+        out[i, 0], out[i, 1], out[i, 2] = cosine_about(N[i, 0], N[i, 1], N[i, 2], uniform(keys[i], dim),
+                                                       uniform(keys[i], dim + 1))
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
