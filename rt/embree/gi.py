@@ -1,22 +1,24 @@
 """Ray-traced global illumination: direct light at the primary hit (shadowed or not, the
 study's two modes) plus `rays_per_pixel` cosine-weighted bounce rays, each shaded at its hit
-with one light sample and a shadow ray; `bounces` > 1 continues the path.
+with one light sample and one sample of the environment (env_light.py), each with its shadow
+ray; `bounces` > 1 continues the path.
 
 Light from emitters reaches bounce hits through their light samples (emissive triangles are
-lights), so a bounce ray that happens to hit an emitter does not add its emission again."""
+lights), so a bounce ray that happens to hit an emitter does not add its emission again; the
+environment's light reaches the primary hit through the bounce rays that miss, and every
+deeper hit through its own environment sample, so a ray that leaves a bounce's hit and misses
+brings nothing."""
 from __future__ import annotations
 
 import numpy as np
 
 from rt.effects import STREAM
-from rt.embree import brdf, gather, raygen
+from rt.embree import brdf, env_light, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
-
-
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -44,7 +46,7 @@ def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
                                     lit, direct)
         indirect = np.zeros((nb, 3), np.float32)
         for r in range(rays):
-            traced += _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect)
+            traced += _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect)
         indirect /= np.float32(rays)
         gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1],
                          frame.metallic[b0:b1], direct, indirect, False)
@@ -54,13 +56,14 @@ def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
+def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect):
     """Path r of every point of the block starting at b0 (keys: theirs): per bounce a
     cosine-weighted ray, its closest hit (the environment where it misses), the hit shaded and
     lit by its own light sample (lit: the shadow rays' target), and from the hit the next
     bounce's ray; each bounce's light, times the albedos of the path's earlier hits (ggx:
     brdf.diffuse_weight), is added into indirect (one row per point). Random dimensions: 6 per
-    bounce from 4 + 6 x (bounces x r).
+    bounce from 4 + 6 x (bounces x r), and 3 a bounce for the hits' environment samples from
+    4 + 6 x bounces x rays + 3 x (bounces x r).
     Returns the rays traced."""
     nb = keys.shape[0]
     env_kind, env_color, horizon, zenith, ground, texels = frame.env
@@ -92,7 +95,8 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
                                    embree.no_trace(frame.target), raygen.NOT_TRACED)
         embree.trace_intersect(frame.target, o[:m], d[:m], tmax[:m], th, prim, u, v)
         level_light[:npts] = 0.0
-        k = gather.split_hits(prim, m, d, owner, into, env_kind, env_color, horizon, zenith, ground, texels, sel)
+        k = gather.split_hits(prim, m, d, owner, into, env_kind if level == 0 else 0, env_color, horizon, zenith,
+                              ground, texels, sel)  # deeper, the environment was sampled at the hit left
         hits = sel[:k]
         # ---- the hits shaded, and lit by one light sample each ----
         _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic, emission,
@@ -104,6 +108,9 @@ def _paths(scene, frame, lit, b0, keys, r, bounces, ggx, indirect):
         hit_direct = brdf.accumulator(ggx, d, hits, rough[:k])
         traced += m + raygen.direct_one(hit_points, 0, keys_b[:k], scene.lights, dim + 2, scene.far,
                                         lit, hit_direct)
+        env_dim = 4 + 6 * bounces * rays + 3 * (bounces * r + level)
+        traced += env_light.env_shadow_rays(hit_points, 0, keys_b[:k], env_dim, frame.env, frame.env_dist,
+                                            scene.far, lit, hit_direct, alb[:k], metal[:k])
         gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct, None)
         if bounces == 1:
             break
