@@ -6,6 +6,7 @@ import shutil
 import struct
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -224,3 +225,41 @@ def test_collada_light_and_camera_reach_the_scene(gl, tmp_path):
     want = 0.5 / np.pi * (np.array([10.0, 8.0, 6.0]) * (to_light[..., 1] / d2 ** 1.5)[..., None])
     assert floor.sum() > 300
     np.testing.assert_allclose(got[floor][:, :3], want[floor], rtol=0.01, atol=1e-4)
+
+
+def test_embedded_textures_are_read_from_the_file(tmp_path):
+    """A texture the file carries (Assimp's "*0"; FBX's embedded media the same way, by index
+    or by file name): the same texels as the glTF reader decodes from that file, with nothing
+    beside it on disk."""
+    from scenes.loaders.assimp import load_assimp
+    from tests.gltf_writer import png_bytes, quad_document, write_glb
+
+    rgb = np.zeros((8, 8, 3), np.uint8)
+    rgb[:4, :, 0], rgb[4:, :, 2], rgb[:, :4, 1] = 255, 200, 90
+    doc, blob = quad_document(None, image=png_bytes(rgb))
+    path = write_glb(tmp_path / "quad.glb", doc, blob)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "not found"/"using the colour" warning
+        mat = load_assimp(path).materials[0]
+    want = load_scene(str(path)).materials[0].texture
+    assert mat.texture is not None and mat.texture.shape[:2] == (8, 8)
+    np.testing.assert_allclose(mat.texture[..., :3], want[..., :3], atol=1e-6)
+
+
+def test_embedded_textures_by_file_name_and_as_texels(tmp_path):
+    """FBX's embedded media are named by the file they came from (a path from another machine):
+    found by that name; texels Assimp hands over decoded (BGRA made RGBA) read as their PNG."""
+    from scenes.loaders.assimp import _embedded, _texture
+    from tests.gltf_writer import png_bytes
+
+    rgba = np.random.default_rng(1).integers(0, 256, (4, 6, 4)).astype(np.uint8)
+    rgba[..., 3] = 255
+    infos = [{"name": "D:\\art\\tex\\Wood.png", "hint": "png"}, {"name": "", "hint": "rgba8", "shape": [4, 6, 4]}]
+    arrays = {"embedded_0": np.frombuffer(png_bytes(rgba[..., :3]), np.uint8), "embedded_1": rgba.reshape(-1)}
+    carried = _embedded(infos, arrays)
+    assert not arrays  # taken out of the scene's arrays
+    scene_file = tmp_path / "s.fbx"
+    by_name = _texture(scene_file, "C:\\Users\\someone\\wood.png", "s.fbx", srgb=False, embedded=carried)
+    texels = _texture(scene_file, "*1", "s.fbx", srgb=False, alpha=True, embedded=carried)
+    np.testing.assert_allclose(by_name, rgba[..., :3] / 255.0, atol=1e-6)
+    np.testing.assert_allclose(texels, rgba / 255.0, atol=1e-6)

@@ -46,7 +46,8 @@ def load_assimp(path: Path) -> Scene:
         raise UserError(f"{path.name}: non-finite vertex data")
     if tri.min() < 0 or tri.max() >= len(pos):
         raise UserError(f"{path.name}: triangle indices out of range")
-    mats = [_material(path, m) for m in meta["materials"]] or [Material()]
+    embedded = _embedded(meta.get("embedded", []), arrays)
+    mats = [_material(path, m, embedded) for m in meta["materials"]] or [Material()]
     mid = arrays["material_ids"]
     if mid.size and (mid.min() < 0 or mid.max() >= len(mats)):
         raise UserError(f"{path.name}: a mesh names a material the file does not have")
@@ -117,7 +118,24 @@ def _either(m: dict, key: str, legacy: str) -> list:
     return value if max(value) > 0 else _numbers(m, legacy, 3, (0, 0, 0))
 
 
-def _material(scene_file: Path, m: dict) -> Material:
+def _embedded(infos: list, arrays: dict) -> dict:
+    """The textures the file carries, by how materials name them: "*index" (Assimp's reference)
+    and their own file name (FBX's embedded media keep it), lower case; each (bytes or RGBA
+    texels, format hint)."""
+    out = {}
+    for i, info in enumerate(infos):
+        data = arrays.pop(f"embedded_{i}", None)
+        if data is None:
+            continue
+        entry = (data.reshape(info["shape"]) if info.get("hint") == "rgba8" else data.tobytes(), info.get("hint", ""))
+        out[f"*{i}"] = entry
+        base = info.get("name", "").replace("\\", "/").rsplit("/", 1)[-1].lower()
+        if base:
+            out.setdefault(base, entry)
+    return out
+
+
+def _material(scene_file: Path, m: dict, embedded: dict | None = None) -> Material:
     name = m.get("name", "default")
     tex = m.get("textures", {})
     base = _numbers(m, "base", 3, _numbers(m, "diffuse", 3, (0.8, 0.8, 0.8)))
@@ -135,8 +153,9 @@ def _material(scene_file: Path, m: dict) -> Material:
                    emissive=tuple(float(x) for x in np.clip(_either(m, "emissive", "Emissive"), 0, 1e6)),
                    double_sided=True)
     what = f"{scene_file.name}: material {name[:60]!r}"
-    colour = _texture(scene_file, tex.get("base_color") or tex.get("diffuse"), what, srgb=True, alpha=True)
-    opacity = _texture(scene_file, tex.get("opacity"), what, srgb=False)
+    colour = _texture(scene_file, tex.get("base_color") or tex.get("diffuse"), what, srgb=True, alpha=True,
+                      embedded=embedded)
+    opacity = _texture(scene_file, tex.get("opacity"), what, srgb=False, embedded=embedded)
     if colour is not None and opacity is not None:
         h, w = colour.shape[:2]
         yi, xi = np.arange(h) * opacity.shape[0] // h, np.arange(w) * opacity.shape[1] // w
@@ -149,28 +168,34 @@ def _material(scene_file: Path, m: dict) -> Material:
     if _numbers(m, "opacity", 1, (1.0,))[0] < 1.0:
         mat.base_color = (*mat.base_color[:3], float(np.clip(_numbers(m, "opacity", 1, (1.0,))[0], 0, 1)))
         mat.alpha_mode = "MASK"
-    normal = _texture(scene_file, tex.get("normals"), what, srgb=False)
+    normal = _texture(scene_file, tex.get("normals"), what, srgb=False, embedded=embedded)
     if normal is not None:
         n = normal[..., :3] * 2.0 - 1.0
         mat.normal_map = (n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-6)).astype(np.float32)
-    emission = _texture(scene_file, tex.get("emission_color") or tex.get("emissive"), what, srgb=True)
+    emission = _texture(scene_file, tex.get("emission_color") or tex.get("emissive"), what, srgb=True,
+                        embedded=embedded)
     if emission is not None:
         scale = np.asarray(mat.emissive, np.float32) if max(mat.emissive) > 0 else np.ones(3, np.float32)
         mat.emissive_map = np.ascontiguousarray(emission[..., :3] * scale, np.float32)
     return mat
 
 
-def _texture(scene_file: Path, name: str | None, what: str, srgb: bool, alpha: bool = False):
-    """A texture the file names, from inside the scene's folder: its relative path, or (a path
-    from another machine, e.g. C:\\...\\wood.dds) its file name there or in a textures/ folder."""
+def _texture(scene_file: Path, name: str | None, what: str, srgb: bool, alpha: bool = False,
+             embedded: dict | None = None):
+    """A texture the file names: one it carries (embedded: "*index", or its file name), else from
+    inside the scene's folder: its relative path, or (a path from another machine, e.g.
+    C:\\...\\wood.dds) its file name there or in a textures/ folder."""
     if not name:
         return None
-    if name.startswith("*"):
-        warnings.warn(f"{what}: embedded textures are not read yet; using the colour", stacklevel=4)
-        return None
     rel = name.replace("\\", "/")
-    candidates = [rel] if not (rel.startswith("/") or ":" in rel) else []
     base = rel.rsplit("/", 1)[-1]
+    found = (embedded or {}).get(name if name.startswith("*") else base.lower())
+    if found is not None:
+        return _decode_embedded(found, f"{what}: embedded texture {name[:60]!r}", srgb, alpha)
+    if name.startswith("*"):
+        warnings.warn(f"{what}: embedded texture {name[:20]!r} is not in the file; using the colour", stacklevel=4)
+        return None
+    candidates = [rel] if not (rel.startswith("/") or ":" in rel) else []
     candidates += [base, f"textures/{base}", f"Textures/{base}"]
     for c in candidates:
         try:
@@ -182,6 +207,24 @@ def _texture(scene_file: Path, name: str | None, what: str, srgb: bool, alpha: b
             return _decode(data, f"{what}: texture {base[:60]!r}", target.suffix.lower(), srgb, alpha)
     warnings.warn(f"{what}: texture {name[:80]!r} not found in the scene's folder; using the colour", stacklevel=4)
     return None
+
+
+def _decode_embedded(found: tuple, what: str, srgb: bool, alpha: bool):
+    """An embedded texture: an image file's bytes (Assimp's format hint as its suffix; a file
+    whose hint is missing or unknown is read by its content), or RGBA8 texels, made a PNG."""
+    data, hint = found
+    if not isinstance(data, bytes):
+        import io
+
+        from PIL import Image
+
+        buf = io.BytesIO()
+        Image.fromarray(np.ascontiguousarray(data, np.uint8)).save(buf, format="PNG")
+        data, hint = buf.getvalue(), "png"
+    if len(data) > MAX_TEXTURE_BYTES:
+        raise UserError(f"{what}: {len(data) >> 20} MB, over the {MAX_TEXTURE_BYTES >> 20} MB limit")
+    suffix = ".dds" if hint == "dds" or data[:4] == b"DDS " else f".{hint or 'bin'}"
+    return _decode(data, what, suffix, srgb, alpha)
 
 
 def _decode(data: bytes, what: str, suffix: str, srgb: bool, alpha: bool):

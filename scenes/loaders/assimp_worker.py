@@ -108,9 +108,29 @@ def read_metadata(path: str, flags: int) -> dict:
         if sc.mNumAnimations:
             features.add("animation (the first frame's pose is drawn)")
         return {"materials": materials, "lights": lights, "cameras": cameras, "features": features,
-                "material_names": [m.get("name", "") for m in materials]}
+                "material_names": [m.get("name", "") for m in materials], "embedded": _embedded(sc)}
     finally:
         _assimp_lib.release(model)
+
+
+def _embedded(sc) -> list[tuple[dict, np.ndarray]]:
+    """The textures the file carries (aiScene.mTextures: FBX's embedded media, glTF's images), as
+    ({name, hint}, bytes): a compressed image's file (PNG, JPEG, DDS..., hint its format), or
+    (hint "rgba8", shape) the decoded texels, Assimp's BGRA made RGBA."""
+    import ctypes
+
+    out = []
+    for i in range(sc.mNumTextures):
+        t = sc.mTextures[i].contents
+        name, hint = _text(t.mFilename), bytes(t.achFormatHint).split(b"\0")[0].decode("ascii", "replace").lower()
+        if t.mHeight == 0:  # mWidth bytes of an image file
+            data = np.frombuffer(ctypes.string_at(t.pcData, t.mWidth), np.uint8).copy()
+            out.append(({"name": name, "hint": hint}, data))
+        else:
+            texels = np.frombuffer(ctypes.string_at(t.pcData, 4 * t.mWidth * t.mHeight), np.uint8)
+            rgba = texels.reshape(t.mHeight, t.mWidth, 4)[..., [2, 1, 0, 3]].copy()
+            out.append(({"name": name, "hint": "rgba8", "shape": list(rgba.shape)}, rgba.reshape(-1)))
+    return out
 
 
 def read_geometry(path: str) -> tuple[dict, list[str], set]:
@@ -165,6 +185,10 @@ def read(path: str) -> tuple[dict, dict]:
         arrays, names, features = read_geometry(path)
         meta = later.result()
     mine = meta.pop("material_names")
+    carried, meta["embedded"] = meta.pop("embedded"), []
+    for i, (info, data) in enumerate(carried):
+        arrays[f"embedded_{i}"] = data
+        meta["embedded"].append(info)
     if names != mine:  # the two readers (two Assimp versions) list materials differently: match by name
         remap = []
         for n in names:
