@@ -55,5 +55,15 @@ class EnvOptions:
 
 register_group("env", EnvOptions)
 
+
+@dataclass
+class TextureOptions:
+    max_size: int = opt(0, "longest side of a texture in the renderer, when GPU or host memory is short: larger "
+                        "ones are box-filtered down to it in every pass and backend (0: as loaded, at most 1024)",
+                        0, 1024)
+
+
+register_group("textures", TextureOptions)
+
 import app.passes  # noqa: E402, F401  (registers every pass's options after the global ones)
 from core.options import Options  # noqa: E402, F401

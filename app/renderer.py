@@ -97,6 +97,13 @@ class Renderer:
         self.pass_outputs = False
 
     def set_scene(self, scene) -> None:
+        """scene for every pass and backend (with its textures made smaller where option
+        textures.max_size asks: scenes/texture_limit.py)."""
+        from scenes.texture_limit import limited
+
+        self.source_scene = scene
+        self._texture_side = int(self.options.get("textures.max_size"))
+        scene = limited(scene, self._texture_side)
         if self.gpu is not None:
             self.gpu.release()
         if self.rt is not None:
@@ -234,6 +241,8 @@ class Renderer:
     def prepare(self, camera: Camera, width: int, height: int, pass_name: str = "forward") -> Job | None:
         """The mode's GL passes up to its first ray-traced one. None: the last frame still holds."""
         check_pass(pass_name)
+        if int(self.options.get("textures.max_size")) != self._texture_side:  # the GPU scene and backend again
+            self.set_scene(self.source_scene)
         state = self.state_of(camera, width, height, pass_name)
         max_frames = int(self.options.get("max_frames"))
         converged = bool(self.options.get("accumulate")) and max_frames and self.accumulation.count >= max_frames

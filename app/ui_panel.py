@@ -59,8 +59,8 @@ def draw_option(imgui, options, key: str) -> bool:
 
 def frame_wide_keys(options) -> list[str]:
     """The options of every mode (the frame-wide group, app/options.py: GlobalOptions, in its order,
-    and the environment's)."""
-    return [k for k in options.keys() if "." not in k or k.startswith("env.")]
+    the environment's and the textures')."""
+    return [k for k in options.keys() if "." not in k or k.startswith(("env.", "textures."))]
 
 
 def option_keys_for(options, pass_name: str) -> list[str]:
