@@ -8,7 +8,7 @@ tuples of arrays may be read inside a parallel loop's body):
   images the kernel writes."""
 from __future__ import annotations
 
-from numba import types
+from numba import njit, types
 from numba.experimental import structref
 
 
@@ -20,7 +20,7 @@ class SceneArgsType(types.StructRef):
 
 class SceneArgs(structref.StructRefProxy):
     def __new__(cls, mesh, lights, far):
-        return structref.StructRefProxy.__new__(cls, mesh, lights, far)
+        return _scene_args(mesh, lights, far)
 
 
 structref.define_proxy(SceneArgs, SceneArgsType, [
@@ -39,8 +39,8 @@ class FrameArgsType(types.StructRef):
 class FrameArgs(structref.StructRefProxy):
     def __new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target,
                 out, aux):
-        return structref.StructRefProxy.__new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic,
-                                                emissive, env, env_dist, target, out, aux)
+        return _frame_args(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist,
+                           target, out, aux)
 
 
 structref.define_proxy(FrameArgs, FrameArgsType, [
@@ -54,3 +54,17 @@ structref.define_proxy(FrameArgs, FrameArgsType, [
     "out",  # (N, 3) radiance, every pixel
     "aux",  # (N, C) the pass's other image, or (0, C): not asked for
 ])
+
+
+# The constructors, compiled once and cached on disk: StructRefProxy.__new__'s own is compiled
+# again in every process (~1 s each here for these nested types, in every first frame)
+@njit(cache=True)
+def _scene_args(mesh, lights, far):
+    return SceneArgs(mesh, lights, far)
+
+
+@njit(cache=True)
+def _frame_args(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target, out,
+                aux):
+    return FrameArgs(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target,
+                     out, aux)
