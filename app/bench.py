@@ -227,7 +227,7 @@ def run_bench(args) -> int:
                                                                                         scene.diagonal)
         options = Options()
         options.apply(list(common))
-        renderer = Renderer(ctx, scene, options)
+        renderer = Renderer(ctx, scene, options, prefetch=True)
         t0 = time.perf_counter()
         backend = renderer.ray_tracing()
         build_s = time.perf_counter() - t0

@@ -129,7 +129,7 @@ def _child(mode: str, scene_path: str, tracer: str) -> dict:
         opts = Options()
         opts.apply([f"tracer={tracer}", "accumulate=false"])
         t0 = time.perf_counter()
-        r = Renderer(create_headless_context(), scene, opts)
+        r = Renderer(create_headless_context(), scene, opts, prefetch=True)
         cam = Camera.from_view(scene.default_view(), scene.diagonal)
         r.render(cam, *FIRST_FRAME_SIZE, "ao")
         r.read_linear()

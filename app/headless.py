@@ -55,7 +55,8 @@ def run_shot(args) -> int:
     camera = parse_camera(args.camera, scene) if args.camera else Camera.from_view(scene.default_view(), scene.diagonal)
     ctx = create_headless_context()
     check_frame_size(ctx, width, height, "raster" if args.pass_name in RASTER + CHANNEL_VIEWS else "ray-traced")
-    renderer = Renderer(ctx, scene, options)
+    traced = args.pass_name not in RASTER + CHANNEL_VIEWS or (compare not in (None, *RASTER))
+    renderer = Renderer(ctx, scene, options, prefetch=traced)
     renderer.seed = args.seed
     tracer = resolve(options.get("tracer"))
     keys = compile_keys(tracer, args.pass_name, options.get("gbuffer"))

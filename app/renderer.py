@@ -70,8 +70,12 @@ def wiring(passes: dict, names: list[str], every_output: bool) -> dict:
 
 
 class Renderer:
-    def __init__(self, ctx, scene, options: Options | None = None, profiler: Profiler | None = None):
+    def __init__(self, ctx, scene, options: Options | None = None, profiler: Profiler | None = None,
+                 prefetch: bool = False):
+        """prefetch: a ray-traced pass is wanted soon (shot, bench, viewer): each scene's arrays
+        for the ray-tracing backend are made on a thread while GL uploads it (rt/mesh.py)."""
         self.ctx = ctx
+        self.prefetch = prefetch
         self.options = options or Options()
         self.profiler = profiler or Profiler()
         self.passes = create_passes(ctx)
@@ -104,6 +108,10 @@ class Renderer:
         self.source_scene = scene
         self._texture_side = int(self.options.get("textures.max_size"))
         scene = limited(scene, self._texture_side)
+        if self.prefetch:
+            from rt.mesh import prefetch
+
+            prefetch(scene)
         if self.gpu is not None:
             self.gpu.release()
         if self.rt is not None:

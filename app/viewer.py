@@ -78,7 +78,7 @@ class Viewer:
         glfw.swap_interval(0)  # vsync off: frame times mean something
         self.ctx = wrap_current_context()
         self.scene = scene
-        self.renderer = Renderer(self.ctx, scene, self.options, Profiler(deferred=True))
+        self.renderer = Renderer(self.ctx, scene, self.options, Profiler(deferred=True), prefetch=True)
         self.renderer.reuse_static_frames = True
         self.resolution_scale = 1.0  # of the window, for every frame
         self.motion_scale = 0.5  # extra scale while the camera moves, so flying stays interactive

@@ -14,10 +14,33 @@ LAYER_BASE, LAYER_ORM, LAYER_NORMAL, LAYER_EMISSION = range(LAYERS)
 CORNER_COLUMNS, TANGENT_COLUMNS = 16, 28  # a triangle's row without / with vertex tangents
 
 
+def prefetch(scene) -> None:
+    """Start making scene's arrays on a thread (the renderer does while GL uploads the scene):
+    the first MeshArrays of that scene takes them instead of making them again."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if "_mesh_prefetch" in scene.__dict__:
+        return
+    pool = ThreadPoolExecutor(1, thread_name_prefix="rtlab-mesh")
+    made = MeshArrays.__new__(MeshArrays)
+    scene.__dict__["_mesh_prefetch"] = pool.submit(lambda: (made._fill(scene), made)[1])
+    pool.shutdown(wait=False)
+
+
 class MeshArrays:
     """The flat arrays of a scene (scenes.model.Scene); far: the length of rays to a sun or the sky."""
 
     def __init__(self, scene):
+        pending = scene.__dict__.pop("_mesh_prefetch", None)
+        if pending is not None:
+            try:
+                self.__dict__.update(pending.result().__dict__)
+                return
+            except Exception:  # noqa: BLE001 - e.g. memory: made again here, where it says why
+                pass
+        self._fill(scene)
+
+    def _fill(self, scene) -> None:
         self.scene = scene
         f32 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
         self.positions = f32(scene.positions)
