@@ -66,3 +66,24 @@ def test_a_smaller_texture_renders_alike_in_every_pass(gl, tracer):
         np.testing.assert_allclose(r.read_linear(), a, atol=1e-5, err_msg=pass_name)
         full.release()
         r.release()
+
+
+def test_many_textures_are_packed_each_in_its_layer(gl):
+    """Over 8 layers the GL texture array is packed on threads: each layer still holds its own."""
+    from app.raster.gpu_scene import GpuScene
+
+    b = SceneBuilder("many")
+    for k in range(12):
+        b.material(f"m{k}", (1.0, 1.0, 1.0), roughness=1.0)
+        b.add(grid(1, 1), f"m{k}", trs((k, 0, 0), 0, (1, 1, 1)))
+    b.light(kind="directional", position=(0, 5, 0), intensity=1.0)
+    scene = b.build()
+    for k, m in enumerate(scene.materials):
+        m.texture = np.full((4 + k, 8, 3), k / 16, np.float32)
+    gpu = GpuScene(gl, scene)
+    size = gpu.textures.size[0]
+    texels = np.frombuffer(gpu.textures.read(), np.float16).reshape(12, size, size, 4)
+    for k in range(12):
+        np.testing.assert_allclose(texels[k, ..., :3], k / 16, atol=1e-3)
+        np.testing.assert_array_equal(texels[k, ..., 3], 1.0)
+    gpu.release()

@@ -2,6 +2,8 @@
 every texture layer as one array, the environment cube map and the light list."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from app.gl_context import program, software_gl
@@ -124,6 +126,24 @@ class GpuScene:
         size = int(min(1024, 2 ** int(np.ceil(np.log2(size))))) if layers_in else 1
         layers = np.zeros((max(len(layers_in), 1), size, size, 4), np.float16)
         table = np.zeros((len(mats) * MAT_TEXELS, 4), np.float32)
+
+        def pack(count: int) -> None:  # layer `count`, resampled to size x size (nearest), alpha 1 where it has none
+            tex = layers_in[count]
+            h, w, c = tex.shape
+            yi = (np.arange(size) * h // size)[:, None]
+            xi = (np.arange(size) * w // size)[None, :]
+            if c < 4:
+                layers[count, :, :, 3] = 1.0
+            layers[count, :, :, :min(c, 4)] = tex[yi, xi, :4]
+
+        if len(layers_in) > 8:  # hundreds of textures (big scenes): on threads, numpy's gathers leave the GIL
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(min(len(layers_in), os.cpu_count() or 1)) as pool:
+                list(pool.map(pack, range(len(layers_in))))
+        else:
+            for count in range(len(layers_in)):
+                pack(count)
         count = 0
         for k, m in enumerate(mats):
             index = []
@@ -131,11 +151,6 @@ class GpuScene:
                 if tex is None:
                     index.append(-1.0)
                     continue
-                h, w, c = tex.shape
-                yi = (np.arange(size) * h // size)[:, None]
-                xi = (np.arange(size) * w // size)[None, :]
-                layers[count, :, :, 3] = 1.0
-                layers[count, :, :, :min(c, 4)] = tex[yi, xi, :4]
                 index.append(float(count))
                 count += 1
             table[k * MAT_TEXELS + 0] = m.base_color[:4] if len(m.base_color) >= 4 else (*m.base_color, 1.0)
@@ -153,7 +168,7 @@ class GpuScene:
         self.defines += ("HAS_VERTEX_COLORS",) if self.scene.colors is not None else ()
         self.material_table = ctx.texture((table.shape[0], 1), 4, table.tobytes(), dtype="f4")
         self.material_table.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers.tobytes(), dtype="f2")
+        self.textures = ctx.texture_array((size, size, layers.shape[0]), 4, layers, dtype="f2")  # no copy: its buffer
         self.textures.build_mipmaps()
         self.textures.filter = (ctx.LINEAR_MIPMAP_LINEAR, ctx.LINEAR)
         # anisotropic filtering on hardware GL only: llvmpipe's is pathologically slow where the
