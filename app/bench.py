@@ -21,12 +21,12 @@ from app.camera import Camera, parse_camera
 from app.gl_context import check_frame_size, create_headless_context
 from app.headless import parse_size
 from app.image_io import atomic_path, write_png, write_text
+from app.loading import open_scene
 from app.machine import machine_info
 from app.options import Options
 from app.renderer import Renderer
 from core.errors import UserError
 from rt.hybrid import EFFECTS as HYBRID_EFFECTS
-from scenes.loaders import load_scene
 
 # name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on, and the
 # one-sample ones as NAME+svgf and NAME+oidn: each frame denoised, without accumulation
@@ -191,7 +191,7 @@ def run_bench(args) -> int:
         raise UserError(f"cannot create {out}: {e.strerror}") from None
     common = tuple(args.set or ())  # options for every configuration
     Options().apply(list(common))  # a bad option fails before measuring
-    loaded = [(spec, load_scene(spec)) for spec in scenes]  # fail on a bad scene before measuring
+    loaded = [(spec, open_scene(spec)) for spec in scenes]  # fail on a bad scene before measuring
     ctx = create_headless_context()
     check_frame_size(ctx, *size)
     timed_configs = [c for c in configs]

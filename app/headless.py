@@ -13,12 +13,12 @@ from app.compare import DIFF, REFERENCE_FRAMES, check_compare, compose, flip_map
 from app.gl_context import check_frame_size, create_headless_context
 from app.graph import check_denoise
 from app.image_io import check_output, write_npy, write_png
+from app.loading import open_scene
 from app.options import Options
 from app.passes import CHANNEL_VIEWS, RASTER, check_pass
 from app.renderer import Renderer
 from core.errors import UserError
 from rt.backends import compile_keys, compile_notices, resolve, watch_first_frame
-from scenes.loaders import load_scene
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -51,7 +51,7 @@ def run_shot(args) -> int:
     check_output(out, ".png", "screenshots")  # every output is checked before any work
     if args.raw:
         check_output(args.raw, ".npy", "raw images")
-    scene = load_scene(args.scene)
+    scene = open_scene(args.scene)
     camera = parse_camera(args.camera, scene) if args.camera else Camera.from_view(scene.default_view(), scene.diagonal)
     ctx = create_headless_context()
     check_frame_size(ctx, width, height, "raster" if args.pass_name in RASTER + CHANNEL_VIEWS else "ray-traced")

@@ -25,6 +25,7 @@ from app.gl_context import fullscreen, set_uniform, wrap_current_context
 from app.graph import check_denoise
 from app.headless import parse_size
 from app.image_io import write_npy, write_png
+from app.loading import open_scene
 from app.options import Options
 from app.overlays import split_overlay, status_overlay
 from app.passes import check_pass
@@ -36,9 +37,11 @@ from app.warmup import BackgroundWarmup
 from core.errors import UserError
 from rt.backends import kernels_ready, return_freed_memory
 from scenes.builtin import DEFAULT_SCENE
-from scenes.loaders import load_scene
+from scenes.loaders import is_builtin, load_scene
+from scenes.loaders.progress import reporting
 from scenes.model import View
 
+LOAD_GRACE_S = 0.25  # a file that opens within this is switched to in the same frame
 NO_DISPLAY = ("no display to open a window on (DISPLAY is not set); for a headless image run: "
               "rtlab shot {scene} --out {scene}.png")
 
@@ -62,7 +65,7 @@ class Viewer:
         check_compare(self.pass_name, getattr(args, "compare", None), self.split)
         # a bad bookmarks file or scene: one line before any window opens
         bookmarks = read_bookmarks(args.bookmarks) if getattr(args, "bookmarks", None) else None
-        scene = load_scene(self.scene_spec)
+        scene = open_scene(self.scene_spec)
         if not glfw.init():
             raise UserError(NO_DISPLAY.format(scene=self.scene_spec))
         glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4)
@@ -97,6 +100,7 @@ class Viewer:
         self.frame_times: deque = deque(maxlen=240)
         self.panel = Panel(self)
         self.pending_scene: str | None = None
+        self.loading = None  # (spec, future of its scene, [its loader's stage]) while a file opens in the background
         self.bookmarks: dict[str, View] = bookmarks or dict(scene.views)  # keys 1-9 and the panel's buttons
         self.fb_size = glfw.get_framebuffer_size(self.window)
         self._init_imgui()
@@ -154,13 +158,49 @@ class Viewer:
             self.comparison.track.drop()
 
     def _load_pending_scene(self) -> None:
+        """Open the requested scene: a built-in one here, a file on a thread (the window keeps
+        drawing the old scene, the panel says what the loader is doing) unless it opens at once."""
         spec, self.pending_scene = self.pending_scene, None
-        self._drop_job()
+        if is_builtin(spec):
+            self._scene_loaded(spec, lambda: load_scene(spec))
+            return
+        said = ["reading"]
+
+        def load():
+            with reporting(lambda text: said.__setitem__(0, text)):
+                return load_scene(spec)
+
+        from concurrent.futures import ThreadPoolExecutor
+
+        pool = ThreadPoolExecutor(1, thread_name_prefix="rtlab-load")
+        self.loading = (spec, pool.submit(load), said)
+        pool.shutdown(wait=False)
+        self._poll_loading(wait=LOAD_GRACE_S)
+
+    def _poll_loading(self, wait: float = 0.0) -> None:
+        """The background load's stage in the panel, or its scene (or error) once it is done."""
+        from concurrent.futures import TimeoutError as Pending
+
+        spec, future, said = self.loading
         try:
-            scene = load_scene(spec)
+            future.result(timeout=wait)
+        except Pending:
+            self.panel.message = f"opening {Path(spec).name}: {said[0]}"
+            return
+        except Exception:  # noqa: BLE001 - said by _scene_loaded, which reads the result again
+            pass
+        self.loading = None
+        self.panel.message = ""
+        self._scene_loaded(spec, future.result)
+
+    def _scene_loaded(self, spec: str, result) -> None:
+        """Switch to the scene result() gives (on the GL thread), or show its error and keep the old one."""
+        try:
+            scene = result()
         except UserError as e:
             self.panel.error = str(e)  # keep the old scene
             return
+        self._drop_job()
         self.scene, self.scene_spec = scene, spec
         self.renderer.set_scene(scene)
         gc.collect()  # the old scene's arrays (hundreds of MB for large scenes) go now
@@ -298,6 +338,8 @@ class Viewer:
         imgui.render()
         if self.pending_scene:
             self._load_pending_scene()
+        elif self.loading is not None:
+            self._poll_loading()
         w, h = self.fb_size
         self.ctx.screen.use()
         self.ctx.screen.viewport = (0, 0, max(w, 1), max(h, 1))

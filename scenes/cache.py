@@ -72,6 +72,9 @@ def load_cached(path: Path, read):
         return read(path)
     if os.environ.get("RTLAB_SCENE_CACHE", "1") == "0" or size < MIN_BYTES:
         return read(path)
+    from scenes.loaders.progress import stage
+
+    stage("looking in the scene cache")
     h = hashlib.blake2b(digest_size=20)
     h.update(_sources_digest() + bytes([FORMAT]))
     with open(path, "rb") as f:
@@ -80,6 +83,7 @@ def load_cached(path: Path, read):
     entry = cache_dir() / f"{h.hexdigest()}.pickle"
     found = _read_entry(entry)
     if found is not None:
+        stage("read from the scene cache")
         for message in found["warnings"]:
             warnings.warn(message, stacklevel=3)
         return found["scene"]

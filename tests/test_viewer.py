@@ -42,7 +42,8 @@ def run_check(name: str, timeout: int = 600):
                                   "ray_tracing_does_not_block_the_window", "split_view_shows_each_pass_on_its_side",
                                   "bookmarks_file_drives_keys_and_buttons",
                                   "switching_pass_never_shows_the_old_image_under_the_new_name",
-                                  "dropping_a_file_opens_it", "f12_writes_into_the_screenshots_folder",
+                                  "dropping_a_file_opens_it", "a_slow_file_opens_in_the_background",
+                                  "f12_writes_into_the_screenshots_folder",
                                   "flying_in_a_ray_traced_pass_shows_frames", "ui_fuzz",
                                   "denoisers_and_reprojection_in_the_viewer",
                                   "cold_start_compiles_in_the_background"])

@@ -49,6 +49,45 @@ def test_switching_pass_never_shows_the_old_image_under_the_new_name():
         v.close()
 
 
+def test_a_slow_file_opens_in_the_background():
+    """A file that takes a while: the window keeps drawing the old scene and the panel names
+    the loader's stage, then the new scene comes; a broken one leaves the old scene."""
+    import time
+
+    import app.viewer as viewer
+    from scenes.loaders import load_scene
+    from scenes.loaders.progress import stage
+
+    def slow(spec):
+        stage("materials and textures 1/2")
+        time.sleep(1.0)
+        return load_scene(spec)
+
+    v = viewer.Viewer(view_args())
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "tri.obj"
+            path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+            viewer.load_scene = slow
+            v.request_scene(str(path))
+            v.frame(0.016)
+            assert v.scene.name == "arcade" and v.loading is not None
+            assert "tri.obj: materials and textures 1/2" in v.panel.message, v.panel.message
+            t0 = time.perf_counter()
+            while v.loading is not None and time.perf_counter() - t0 < 30:
+                v.frame(0.016)
+            assert v.scene.name == "tri" and not v.panel.message and not v.panel.error
+            v.request_scene(str(Path(folder) / "gone.obj"))
+            t0 = time.perf_counter()
+            v.frame(0.016)
+            while v.loading is not None and time.perf_counter() - t0 < 30:
+                v.frame(0.016)
+            assert v.scene.name == "tri" and "no such file" in v.panel.error
+    finally:
+        viewer.load_scene = load_scene
+        v.close()
+
+
 def test_dropping_a_file_opens_it():
     from app.viewer import Viewer
 

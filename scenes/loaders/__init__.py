@@ -21,6 +21,9 @@ EXTENSIONS = (".gltf", ".glb", ".obj", ".ply") + ASSIMP_EXTENSIONS
 
 def load_scene(spec: str):
     """Built-in name (optionally `name:detail`) or a path. Raises UserError with one clear line."""
+    from scenes.loaders.progress import stage
+
+    stage(f"reading {Path(spec).name if not is_builtin(spec) else spec}")
     scene = _load(spec)
     if not is_builtin(spec) and scene.environment.kind == "black" and not lit_by_itself(scene):
         # as the glTF sample viewer and Blender light an asset: under an environment

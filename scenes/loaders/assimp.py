@@ -27,6 +27,7 @@ import numpy as np
 from core.errors import UserError
 from scenes.loaders.checks import read_regular
 from scenes.loaders.common import available_memory, check_memory, decode_image, safe_child
+from scenes.loaders.progress import counted, stage
 from scenes.model import Environment, Light, Material, Scene, View
 
 EXTENSIONS = (".fbx", ".dae", ".3ds", ".blend", ".x", ".lwo", ".ase", ".ms3d", ".md5mesh", ".off")
@@ -36,6 +37,7 @@ MAX_TEXTURE_BYTES = 256 << 20
 
 def load_assimp(path: Path) -> Scene:
     check_memory(path.stat().st_size // 20, path.stat().st_size // 12, path.name)
+    stage("importing with Assimp (a child process)")
     arrays, meta = _import(path)
     for feature in meta["features"]:
         warnings.warn(f"{path.name}: {feature}", stacklevel=3)
@@ -47,7 +49,11 @@ def load_assimp(path: Path) -> Scene:
     if tri.min() < 0 or tri.max() >= len(pos):
         raise UserError(f"{path.name}: triangle indices out of range")
     embedded = _embedded(meta.get("embedded", []), arrays)
-    mats = [_material(path, m, embedded) for m in meta["materials"]] or [Material()]
+    mats = []
+    for k, m in enumerate(meta["materials"]):
+        counted("materials and textures", k, len(meta["materials"]))
+        mats.append(_material(path, m, embedded))
+    mats = mats or [Material()]
     mid = arrays["material_ids"]
     if mid.size and (mid.min() < 0 or mid.max() >= len(mats)):
         raise UserError(f"{path.name}: a mesh names a material the file does not have")

@@ -20,6 +20,7 @@ from scenes.loaders.checks import Checker, read_regular
 from scenes.loaders.common import check_memory, compute_normals, decode_image, safe_child
 from scenes.loaders.gltf_checks import WIDTH, check_document
 from scenes.loaders.gltf_materials import UvRule, generate_tangents, read_material, wrap_modes
+from scenes.loaders.progress import counted, stage
 from scenes.model import Environment, Light, Material, Scene, View
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -207,7 +208,9 @@ class _Reader:
     # -- scene -----------------------------------------------------------------------------
     def materials(self) -> tuple[list[Material], list[UvRule]]:
         mats, rules = [], []
-        for k, m in enumerate(self.doc.get("materials", [])):
+        found = self.doc.get("materials", [])
+        for k, m in enumerate(found):
+            counted("materials and textures", k, len(found))
             mat, rule = read_material(self, k, m)
             if not np.isfinite(np.float32(max(mat.emissive))):
                 raise UserError(f"{self.path.name}: materials[{k}]: emissive radiance is not a finite float32")
@@ -251,6 +254,7 @@ class _Reader:
         lights, views = [], {}
         light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
         count = 0
+        stage("meshes")
         todo = [(r, np.eye(4)) for r in reversed(roots)]
         while todo:  # depth first, in the file's order; no recursion (trees may be deep)
             node_index, parent = todo.pop()
