@@ -1,5 +1,5 @@
 """Opening a scene with its progress shown: on a terminal one line that the loaders' stages
-(scenes/loaders/progress.py) rewrite, once a load has taken longer than a moment, ended with
+(scenes/progress.py) rewrite, once a load has taken longer than a moment, ended with
 how long it took; nothing where stderr is not a terminal (logs, pipes, the tests' one-line
 errors). The viewer shows the same stages in its panel (app/viewer.py)."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import sys
 import time
 
 from scenes.loaders import load_scene
-from scenes.loaders.progress import reporting
+from scenes.progress import reporting
 
 DELAY_S = 1.0  # a load shorter than this says nothing
 EVERY_S = 0.1  # the line is rewritten at most this often

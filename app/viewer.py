@@ -38,8 +38,8 @@ from core.errors import UserError
 from rt.backends import kernels_ready, return_freed_memory
 from scenes.builtin import DEFAULT_SCENE
 from scenes.loaders import is_builtin, load_scene
-from scenes.loaders.progress import reporting
 from scenes.model import View
+from scenes.progress import reporting
 
 LOAD_GRACE_S = 0.25  # a file that opens within this is switched to in the same frame
 NO_DISPLAY = ("no display to open a window on (DISPLAY is not set); for a headless image run: "

@@ -15,6 +15,7 @@ import warnings
 from pathlib import Path
 
 from core.cache import cache_root
+from scenes.progress import stage
 
 MIN_BYTES = 8 << 20  # smaller files read in well under a second: not cached
 MAX_ENTRIES = 8  # the least recently used beyond these are removed
@@ -72,8 +73,6 @@ def load_cached(path: Path, read):
         return read(path)
     if os.environ.get("RTLAB_SCENE_CACHE", "1") == "0" or size < MIN_BYTES:
         return read(path)
-    from scenes.loaders.progress import stage
-
     stage("looking in the scene cache")
     h = hashlib.blake2b(digest_size=20)
     h.update(_sources_digest() + bytes([FORMAT]))

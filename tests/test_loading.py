@@ -1,4 +1,4 @@
-"""A scene's loading names its stages (scenes/loaders/progress.py); on a terminal the CLI shows
+"""A scene's loading names its stages (scenes/progress.py); on a terminal the CLI shows
 them on one line (app/loading.py), elsewhere nothing."""
 import io
 
@@ -6,7 +6,7 @@ import numpy as np
 
 from app.loading import TerminalLine, open_scene
 from scenes.loaders import load_scene
-from scenes.loaders.progress import reporting, stage
+from scenes.progress import reporting, stage
 from tests.gltf_writer import png_bytes, quad_document, write_glb
 
 

@@ -56,7 +56,7 @@ def test_a_slow_file_opens_in_the_background():
 
     import app.viewer as viewer
     from scenes.loaders import load_scene
-    from scenes.loaders.progress import stage
+    from scenes.progress import stage
 
     def slow(spec):
         stage("materials and textures 1/2")

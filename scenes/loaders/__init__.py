@@ -15,14 +15,13 @@ from scenes.builtin import is_builtin
 from scenes.cache import load_cached
 from scenes.loaders.assimp import EXTENSIONS as ASSIMP_EXTENSIONS
 from scenes.model import Environment
+from scenes.progress import stage
 
 EXTENSIONS = (".gltf", ".glb", ".obj", ".ply") + ASSIMP_EXTENSIONS
 
 
 def load_scene(spec: str):
     """Built-in name (optionally `name:detail`) or a path. Raises UserError with one clear line."""
-    from scenes.loaders.progress import stage
-
     stage(f"reading {Path(spec).name if not is_builtin(spec) else spec}")
     scene = _load(spec)
     if not is_builtin(spec) and scene.environment.kind == "black" and not lit_by_itself(scene):

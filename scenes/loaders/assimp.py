@@ -27,8 +27,8 @@ import numpy as np
 from core.errors import UserError
 from scenes.loaders.checks import read_regular
 from scenes.loaders.common import available_memory, check_memory, decode_image, safe_child
-from scenes.loaders.progress import counted, stage
 from scenes.model import Environment, Light, Material, Scene, View
+from scenes.progress import counted, stage
 
 EXTENSIONS = (".fbx", ".dae", ".3ds", ".blend", ".x", ".lwo", ".ase", ".ms3d", ".md5mesh", ".off")
 TIME_LIMIT_S = 300  # the importer's wall time at most (big FBX scenes take tens of seconds)

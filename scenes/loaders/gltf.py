@@ -20,8 +20,8 @@ from scenes.loaders.checks import Checker, read_regular
 from scenes.loaders.common import check_memory, compute_normals, decode_image, safe_child
 from scenes.loaders.gltf_checks import WIDTH, check_document
 from scenes.loaders.gltf_materials import UvRule, generate_tangents, read_material, wrap_modes
-from scenes.loaders.progress import counted, stage
 from scenes.model import Environment, Light, Material, Scene, View
+from scenes.progress import counted, stage
 
 COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 GLB_MAGIC = 0x46546C67

@@ -1,6 +1,7 @@
 """What a scene's loading is doing now, for whoever shows it: the loaders name their stages
 (stage("materials 120/500")), and the one listener set with reporting() hears them (the CLI's
-terminal line: app/loading.py; the viewer's panel). Nothing is said where no one listens."""
+terminal line: app/loading.py; the viewer's panel). Nothing is said where no one listens.
+Beside the loaders, not in them: the scene cache (scenes/cache.py) names its stages too."""
 from __future__ import annotations
 
 import contextlib
