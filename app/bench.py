@@ -24,6 +24,7 @@ from app.image_io import atomic_path, write_png, write_text
 from app.loading import open_scene
 from app.machine import machine_info
 from app.options import Options
+from app.raster.gl_fence import Fences
 from app.renderer import Renderer
 from core.errors import UserError
 from rt.hybrid import EFFECTS as HYBRID_EFFECTS
@@ -124,12 +125,16 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
     for _ in range(warmup):
         renderer.render(camera, *size, pass_name)
     ctx.finish()
+    # as a swap chain presents: the host waits for the GL work of the frame frames_in_flight - 1
+    # before this one (the device backend's end_frame likewise), not for this frame's
+    fences, keep = Fences(ctx), int(opts.get("frames_in_flight")) - 1
     times, passes, rays = [], {}, []
     start = time.perf_counter()
     while True:
         t0 = time.perf_counter()
         renderer.render(camera, *size, pass_name)
-        ctx.finish()
+        fences.insert()
+        fences.wait(keep)
         times.append((time.perf_counter() - t0) * 1e3)
         for name, ms in renderer.profiler.frame.items():
             passes.setdefault(name, []).append(ms)
@@ -139,6 +144,8 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
             break
         if frames is None and n >= 2 and time.perf_counter() - start >= seconds:
             break
+    fences.release()
+    renderer.settle()
     ft = stats(times)
     mean_rays = float(np.mean(rays))
     kind = renderer.profiler.kind

@@ -42,6 +42,9 @@ class GlobalOptions:
     interop: str = opt("auto", "how GL and a GPU ray-tracing device exchange the G-buffer and images: auto (memory "
                        "both share, where the drivers can; else copies through host memory) or copy (always copies)",
                        choices=("auto", "copy"))
+    frames_in_flight: int = opt(2, "frames a GPU backend works on at once: 2 shows each frame's image while the "
+                                "device makes the next (one frame late, no wait for the device between frames), "
+                                "1 waits for every frame before showing it", 1, 2)
 
 
 register_group("", GlobalOptions)

@@ -39,6 +39,10 @@ class Job:
     readback: tuple = ()  # channels the backend makes that the GL passes after it read
     links: dict | None = None  # shared memory (app/raster/interop.py) for readback and "display", made here
     exported: tuple = ()  # the readback channels the backend wrote into their links (the rest are copied)
+    in_flight: bool = False  # the device may still work on this frame when GL shows the one before (finish)
+    lag: int = 0  # 1: GL shows the frame before this one, which the device has done (compute decides)
+    in_flight: bool = False  # the device may still work on this frame when GL shows the one before (finish)
+    lag: int = 0  # 1: GL shows the frame before this one, which the device has done (compute decides)
 
     @property
     def cpu(self) -> bool:
@@ -96,6 +100,10 @@ class Renderer:
         # the viewer sets this: a deterministic (raster) frame whose inputs did not change is
         # shown again instead of re-rendered, which keeps the UI responsive on software GL
         self.reuse_static_frames = False
+        # frames in flight (option frames_in_flight): the slot of the next in-flight frame's
+        # display image, the link GL took the last display from, whether the last frame's is unshown
+        self._flight_slot, self._shown, self._unshown = 0, None, False
+        self._fences = None  # GL fences after the uploads of shown images (app/raster/gl_fence.py)
         # ray-traced passes make their images besides radiance (rt_direct, rt_ao, ...) only when
         # the graph reads them, or when this is set (tests, scripts that read them)
         self.pass_outputs = False
@@ -179,8 +187,8 @@ class Renderer:
         n = frame.width * frame.height
         try:
             links = {name: frame.interop.link(f"rt.{name}", 16 * n) for name in job.readback}
-            if job.present:
-                links["display"] = frame.interop.link("display", 4 * n)
+            if job.present:  # frames in flight alternate between two
+                links["display"] = frame.interop.link(f"display.{self._flight_slot if job.in_flight else 0}", 4 * n)
             return links
         except Unavailable as e:
             self._sharing_failed(frame.backend, e)
@@ -196,8 +204,11 @@ class Renderer:
 
     def _drop_interop(self) -> None:
         if self.interop is not None:
+            if self.rt is not None:
+                self.rt.drain()  # no frame in flight writes the links released here
             self.interop.release()
         self.interop, self._interop_checked = None, None
+        self._shown, self._unshown = None, False
 
     def environment(self) -> Environment:
         """The radiance of missed rays: the scene's or option env's, scaled by env.intensity."""
@@ -256,6 +267,7 @@ class Renderer:
         converged = bool(self.options.get("accumulate")) and max_frames and self.accumulation.count >= max_frames
         if (self.reuse_static_frames and state == self._state and self.frame is not None
                 and (self.deterministic(pass_name) or converged)):
+            self.settle()  # the last frame's own image, where frames in flight showed the one before
             return None  # nothing would change: show the last frame
         moved = False
         if state != self._state:
@@ -295,8 +307,17 @@ class Renderer:
         made = {c for n in job.traced for c in self.passes[n].writes}
         read = {c for n in job.gl_after for c in self.passes[n].reads}
         job.readback = tuple(sorted(made & read))
+        # the device may work on this frame while GL shows the one before: where it presents the
+        # image and nothing else of it goes to GL
+        job.in_flight = (job.present and frame.interop is not None and not job.readback
+                         and int(self.options.get("frames_in_flight")) > 1)
+        if job.in_flight:
+            self._flight_slot ^= 1
+            if self._fences is not None:  # GL has read the image the device is to write next
+                self._fences.wait(0)
         if frame.interop is not None:  # GL objects are made on this (the GL) thread
             job.links = self._links(frame, job)
+        job.in_flight = job.in_flight and job.links is not None
         self._run(job, job.gl_before)
         return job
 
@@ -306,6 +327,9 @@ class Renderer:
             return
         backend = job.frame.backend
         rays0 = backend.rays_traced
+        shown = self._shown
+        job.lag = int(job.in_flight and shown is not None and shown.nbytes == job.links["display"].nbytes
+                      and shown is not job.links["display"])
         try:
             self._run(job, job.traced)
             if job.present:
@@ -317,7 +341,11 @@ class Renderer:
                     job.exported = tuple(n for n in job.readback if hasattr(channels.get(n), "buffer"))
                     for name in job.exported:  # device images (a G-buffer view is a host array)
                         backend.export(channels[name], job.links[name].device)
-                    job.frame.interop.device_done()
+                    if not job.lag:
+                        job.frame.interop.device_done()
+            # in flight: the host goes on while the device does this frame (finish shows the one
+            # before); the frames' ray counts and timestamps are read as they are done
+            backend.end_frame(job.lag)
         except DeviceError:
             self.options.set("tracer", "embree")  # the next frame (ray_tracing) builds Embree's
             raise
@@ -372,17 +400,24 @@ class Renderer:
     def finish(self, job: Job) -> Frame:
         """Uploads of what the backend made for GL passes, then the rest: accumulation, display."""
         frame = job.frame
+        if job.lag:  # the frame before's image, which the device has done, goes up before this one's
+            with self.profiler.cpu("upload"):  # is handed to GL (on CUDA, GL work after that waits for it)
+                frame.channels["display"] = self._show(self._shown, frame)
         shared = self._shared_to_gl(job)
         if job.presented is not None:
             mean, image, self.accumulation.count = job.presented
             frame.channels["accumulated"] = mean
             with self.profiler.cpu("upload"):
                 if "display" in shared:
-                    frame.channels["display"] = self.uploads.rgba8_from_buffer("display", shared["display"].gl,
-                                                                               frame.width, frame.height)
+                    if not job.lag:
+                        frame.channels["display"] = self._show(shared["display"], frame)
                 else:  # read back here where sharing failed this frame
                     image = image if isinstance(image, np.ndarray) else frame.backend.to_host(image)
                     frame.channels["display"] = self.uploads.upload_rgba8("display", image)
+            self._unshown = bool(job.lag) and "display" in shared
+            self._shown = shared.get("display") if job.in_flight else None
+        if not job.in_flight:  # this frame's image is shown: nothing left in flight to show
+            self._shown, self._unshown = None, False
         if job.traced:
             for name in (set(job.readback) - set(job.exported)) & set(frame.channels):
                 with self.profiler.cpu("device_readback"):  # nothing to move for Embree's numpy images
@@ -408,8 +443,30 @@ class Renderer:
         with self.profiler.cpu("upload"):
             return self.uploads.upload(name, image, frame.width, frame.height)
 
+    def _show(self, link, frame: Frame):
+        """The display texture from a link the device has written (and handed to GL); with
+        frames in flight, a fence after it, which the next in-flight frame waits for before the
+        device writes that link again (prepare)."""
+        tex = self.uploads.rgba8_from_buffer("display", link.gl, frame.width, frame.height)
+        if frame.backend is not None and int(self.options.get("frames_in_flight")) > 1:
+            if self._fences is None:
+                from app.raster.gl_fence import Fences
+
+                self._fences = Fences(self.ctx)
+            self._fences.insert()
+        return tex
+
+    def settle(self) -> None:
+        """The last frame's own image shown (frames in flight show the one before): waits for
+        the device."""
+        if self._unshown and self.frame is not None and self._shown is not None:
+            self.frame.backend.drain()
+            self.frame.channels["display"] = self._show(self._shown, self.frame)
+            self._unshown = False
+
     # -- read back (row 0 = top of the image) ---------------------------------------------
     def read_display(self) -> np.ndarray:
+        self.settle()
         tex = self.frame.channels["display"]
         w, h = tex.size
         data = np.frombuffer(tex.read(), np.uint8).reshape(h, w, 4)

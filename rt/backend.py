@@ -68,7 +68,15 @@ class Backend:
         channels ("radiance" and/or the effect's AUX_CHANNEL) as device images."""
         raise NotImplementedError
 
-    gpu_ms: dict = {}  # a device backend's GPU time per dispatch of the current frame (ms), by name
+    gpu_ms: dict = {}  # a device backend's GPU time per dispatch of the last frame read (ms), by name
+
+    def end_frame(self, lag: int = 0) -> None:
+        """The frame's work is all recorded: a device backend submits it, then waits until at
+        most lag frames are still in flight (0: this one is done), reading their ray counts and
+        timestamps (rays_traced, gpu_ms). Backends that work on the host have nothing to do."""
+
+    def drain(self) -> None:
+        """Until every frame in flight is done and read (end_frame with lag 0 of the last one)."""
 
     def gbuffer_view(self, channel: str) -> object:
         """A G-buffer channel (albedo, normal, position, depth, roughness, emissive, motion) of

@@ -19,7 +19,7 @@ def _driver():
     names = {"register": "cuGraphicsGLRegisterBuffer", "unregister": "cuGraphicsUnregisterResource",
              "map": "cuGraphicsMapResources", "unmap": "cuGraphicsUnmapResources",
              "pointer": "cuGraphicsResourceGetMappedPointer_v2", "copy": "cuMemcpyDtoD_v2",
-             "push": "cuCtxPushCurrent_v2", "pop": "cuCtxPopCurrent_v2", "sync": "cuCtxSynchronize"}
+             "push": "cuCtxPushCurrent_v2", "pop": "cuCtxPopCurrent_v2"}
     found = {}
     for key, name in names.items():
         try:
@@ -85,8 +85,10 @@ class CudaShare:
                     dst, src = (pointer.value, device) if to_gl else (device, pointer.value)
                     self._call("copy", dst, src, link.nbytes)
             finally:
+                # on the default stream, as slang-rhi's work: after the device's work that wrote
+                # the buffer, before its next; GL's work after the unmap waits for the copies on
+                # the GPU (the mapping waited for GL's before it), so the host waits for nothing
                 self.cu["unmap"](len(links), resources, None)
-            self._call("sync")  # the copies done before the device's next work or GL's use
 
         self._in_context(work)
 

@@ -14,6 +14,7 @@ from rt.effects import AUX_CHANNEL, AUX_CHANNELS, STREAM
 from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args, env_distribution
 from rt.slang.device import open_device
+from rt.slang.flights import Flights
 from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
 
@@ -75,26 +76,21 @@ class SlangBackend(Backend):
     def __init__(self, kind: str = "vulkan"):
         self.name = kind
         self.device = open_device(kind)  # imports slangpy (without PyTorch: rt/slang/device.py)
-        import slangpy as spy
-
         self.scene: DeviceScene | None = None
         self.inputs: FrameInputs | None = None
         self._pipelines: dict = {}
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
-        self._counted = 0  # rays counted: on the host (primary rays), and the device counter's increments read
-        self._counter_read = 0  # the device counter's value when last read (it wraps at 2^32: differences are taken)
         self._env_texels = None  # (the map's texels, their device buffer, its distribution's, its cells)
-        self._counter_stale = False  # work that counts rays was submitted since the counter was last read
-        self._timers: dict = {}  # the current frame's dispatches: name -> their GPU time (ms) when called
         self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
         self._busy = False  # the frame's work was submitted since the last wait for the device
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
+        self._submitted = None  # the id of the last submission
         self._log_count = self._buffer("log.count", 1, 4)
         self._counter = self._buffer("rays_traced", 1, 4)
         self._counter.copy_from_numpy(np.zeros(1, np.uint32))
-        self._counter_host = self.device.create_buffer(size=4, memory_type=spy.MemoryType.read_back,
-                                                       usage=spy.BufferUsage.copy_destination)
+        # each frame's submission, ray count and timestamps, read when it is done
+        self._flights = Flights(self.device, kind, self._counter, self.cuda_context() if kind == "cuda" else None)
 
     def wants_gbuffer(self, mode: str) -> bool:
         """The raster G-buffer only where the graph rasterises anyway (hybrid: the traced pixels
@@ -103,25 +99,27 @@ class SlangBackend(Backend):
 
     @property
     def gpu_ms(self) -> dict:
-        """The current frame's dispatches' GPU times (ms): read at the end of the frame, since
-        reading waits for the device."""
-        self._wait_for_frame()
-        return {name: timer() for name, timer in self._timers.items()}
+        """The dispatches' GPU times (ms) of the last frame the device has done and end_frame
+        or drain read (no wait here)."""
+        return self._flights.gpu_ms
 
     @property
     def rays_traced(self) -> int:
-        """Rays traced since creation: reads the device's counter back (waits for the device's
-        work, as the frame's end does anyway) only when rays were traced since the last read."""
-        if self._counter_stale:
-            # each effect's dispatch copies the counter into host-visible memory with its own
-            # work (_run): reading it maps that memory, with no copy or submission of its own
-            # (to_numpy of the device-local counter would stage a copy and wait again: 1.3 ms a
-            # frame on the H200's Vulkan)
-            self._wait_for_frame()
-            value = int(self._counter_host.to_numpy().view(np.uint32)[0])
-            self._counted += (value - self._counter_read) % 2**32
-            self._counter_read, self._counter_stale = value, False
-        return self._counted
+        """Rays traced by the frames that end_frame or drain read (no wait here)."""
+        return self._flights.rays
+
+    @_device_errors
+    def end_frame(self, lag: int = 0) -> None:
+        """The frame's work submitted; then the frames in flight read (their ray counts and
+        timestamps) until at most lag of them are left: 0 waits for this frame, 1 for the one
+        before it only, so that the device works on this frame while the host makes the next."""
+        self._flights.end(self._encoding, self._submit_now, lag)
+
+    @_device_errors
+    def drain(self) -> None:
+        """Until every frame in flight is done, and read."""
+        self._submit()
+        self._flights.retire(0)
 
     @property
     def adapter(self) -> str:
@@ -175,12 +173,6 @@ class SlangBackend(Backend):
         self.device.wait()
         self._busy = False
 
-    def _wait_for_frame(self) -> None:
-        """wait(), at once where nothing was submitted since the last wait (the frame's counters
-        and timestamps are read after the hand-over to GL has waited)."""
-        if self._busy or self._encoder is not None:
-            self.wait()
-
     def _encoding(self):
         """The command encoder that the frame's dispatches are recorded in."""
         if self._encoder is None:
@@ -191,8 +183,12 @@ class SlangBackend(Backend):
         """Submit what the frame recorded so far (before the host reads or waits for it)."""
         if self._encoder is not None:
             encoder, self._encoder = self._encoder, None
-            self.device.submit_command_buffer(encoder.finish())
+            self._submitted = self.device.submit_command_buffer(encoder.finish())
             self._busy = True
+
+    def _submit_now(self) -> int | None:
+        self._submit()
+        return self._submitted
 
     @_device_errors
     def export(self, image: Image, out) -> None:
@@ -229,8 +225,10 @@ class SlangBackend(Backend):
             c["g_tan_half"] = float(np.tan(np.radians(cam.fov) / 2))
             c["g_jitter"] = np.asarray(inputs.jitter, np.float32)
 
-        self._timers = {"primary": pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key())}
-        self._counted += w * h
+        flight = self._flights.current
+        flight.timers["primary"] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(),
+                                                     flight.slot)
+        flight.primary += w * h
         self._submit()  # the device traces the primary rays while the host records the effects
 
     def _unpack(self, packed: dict, cam, w: int, h: int, right, up, forward) -> None:
@@ -253,7 +251,6 @@ class SlangBackend(Backend):
             "g_width": w, "g_height": h, "g_eye": np.asarray(cam.eye, np.float32), "g_right": right, "g_up": up,
             "g_forward": forward, "g_tan_half": float(np.tan(np.radians(cam.fov) / 2)),
             "g_jitter": np.asarray(self.inputs.jitter, np.float32)})
-        self._timers = {}
         self._submit()  # the device unpacks while the host records the effects
 
     def _compute(self, name: str, w: int, h: int, variables: dict) -> None:
@@ -354,9 +351,10 @@ class SlangBackend(Backend):
             for name, value in values.items():
                 c[name] = value
 
-        self._counter_stale = True
-        self._timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(out, aux))
-        self._encoding().copy_buffer(self._counter_host, 0, self._counter, 0, 4)  # read by rays_traced
+        flight = self._flights.current
+        flight.counted = True  # the counter is read once the frame is done (end_frame)
+        flight.timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(out, aux),
+                                                  flight.slot)
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
         return {c: images[c] for c in channels}
 

@@ -5,6 +5,10 @@ is written into it only when it changes (dispatch's `static` and `key`): each wr
 into slangpy, and most of a frame's fields are those."""
 from __future__ import annotations
 
+import functools
+
+from rt.slang.flights import SLOTS
+
 
 class _Root:
     """A program's root shader object, kept between dispatches, its cursor, and the key of what
@@ -73,29 +77,33 @@ class Pipeline:
 
         self.device = device
         self.program, self.pipeline, self.table = _ray_tracing(device, file, raygen, tuple(misses), closest_hit)
-        self.timer = device.create_query_pool(type=spy.QueryType.timestamp, count=2)
+        # one pool per frame in flight (rt/slang/flights.py): a frame's timestamps are read while
+        # the next frame's are written
+        self.timers = [device.create_query_pool(type=spy.QueryType.timestamp, count=2) for _ in range(SLOTS)]
         self.root = _Root(device, self.program)
 
-    def dispatch(self, encoder, width: int, height: int, bind, static=None, key=None):
+    def dispatch(self, encoder, width: int, height: int, bind, static=None, key=None, slot: int = 0):
         """bind(cursor) sets the shader's globals that change from frame to frame, static(cursor)
         the others, when key (a tuple of what they depend on) differs from the last dispatch's;
         then one ray generation per pixel, recorded in encoder (the backend submits it). Returns a
         function that gives the dispatch's GPU time in ms, to be called once the device has done
-        the work (the backend's wait)."""
+        the work (the backend's wait), before the slot's next dispatch."""
         self.root.bind(bind, static, key)
-        self.timer.reset()
-        encoder.write_timestamp(self.timer, 0)
+        timer = self.timers[slot]
+        timer.reset()
+        encoder.write_timestamp(timer, 0)
         with encoder.begin_ray_tracing_pass() as rt_pass:
             rt_pass.bind_pipeline(self.pipeline, self.table, self.root.object)
             rt_pass.dispatch_rays(0, [width, height, 1])
-        encoder.write_timestamp(self.timer, 1)
-        return self.elapsed
+        encoder.write_timestamp(timer, 1)
+        return functools.partial(_elapsed, timer)
 
-    def elapsed(self) -> float:
-        """The last dispatch's GPU time in ms, once its work is done (Vulkan does not wait for
-        the timestamps themselves)."""
-        t0, t1 = self.timer.get_timestamp_results(0, 2)
-        return (t1 - t0) * 1e3
+
+def _elapsed(timer) -> float:
+    """A dispatch's GPU time in ms, once its work is done (Vulkan does not wait for the
+    timestamps themselves)."""
+    t0, t1 = timer.get_timestamp_results(0, 2)
+    return (t1 - t0) * 1e3
 
 
 class ComputePipeline:

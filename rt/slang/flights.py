@@ -1,0 +1,153 @@
+"""Frames in flight on a slangpy device: each frame's submission, its ray count and its
+dispatches' timestamps, read once the device has done that frame, while the host goes on to the
+next one (end(lag=1)) or at once (lag=0, a frame the host needs finished, e.g. to show it).
+
+The device's ray counter (a running sum, shaders/rt/*.slang) is copied into host memory after
+each frame's work, into one of two slots, so that the copy of frame N+1 does not overwrite frame
+N's before it is read. On Vulkan the copy is recorded with the frame's work; on CUDA slang-rhi
+runs a recorded copy into host memory as a synchronous cuMemcpy at submission, which would make
+the host wait for the frame there, so the copy is CUDA's asynchronous one, followed by an event
+that the reading waits on (_CudaCounter)."""
+from __future__ import annotations
+
+import ctypes
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+SLOTS = 2  # frames whose results are kept: the one being recorded and one in flight
+
+
+@dataclass
+class Flight:
+    slot: int
+    primary: int = 0  # rays counted on the host (the primary hits: one a pixel)
+    counted: bool = False  # an effect added to the device's ray counter
+    timers: dict = field(default_factory=dict)  # dispatch name -> its GPU time (ms) once done
+    submit: int | None = None  # the frame's last submission
+
+
+class Flights:
+    def __init__(self, device, kind: str, counter, cuda_context: int | None = None):
+        self.device, self.counter_buffer = device, counter
+        self.current = Flight(0)
+        self.pending: deque[Flight] = deque()
+        self.rays = 0  # rays of the frames read so far
+        self._counter_read = 0  # the counter's value when last read (it wraps at 2^32: differences are taken)
+        self.gpu_ms: dict = {}  # the last frame read's dispatch times
+        self.counter = _CudaCounter(cuda_context, counter) if kind == "cuda" else _VulkanCounter(device, counter)
+
+    def end(self, encoder_of, submit, lag: int) -> None:
+        """The current frame ends: its counter copied (encoder_of() records with the frame's
+        work, submit() submits it and gives the submission's id), then frames read until at most
+        lag of them are in flight."""
+        f = self.current
+        if f.counted:
+            self.counter.record(encoder_of, f.slot)
+        f.submit = submit()
+        if f.counted:
+            self.counter.after_submit(f.slot)
+        self.pending.append(f)
+        self.current = Flight(f.slot ^ 1)
+        self.retire(lag)
+
+    def retire(self, lag: int = 0) -> None:
+        """Read the frames in flight, oldest first, until at most lag remain (waits for them)."""
+        while len(self.pending) > min(lag, SLOTS - 1):
+            f = self.pending.popleft()
+            if f.submit is not None:
+                self.device.wait_for_submit(f.submit)
+            if f.counted:
+                value = self.counter.read(f.slot)
+                self.rays += (value - self._counter_read) % 2**32
+                self._counter_read = value
+            self.rays += f.primary
+            self.gpu_ms = {name: timer() for name, timer in f.timers.items()}
+
+
+class _VulkanCounter:
+    """The counter copied into host-visible memory with the frame's work; reading maps it."""
+
+    def __init__(self, device, counter):
+        import slangpy as spy
+
+        self.counter = counter
+        self.host = [device.create_buffer(size=4, memory_type=spy.MemoryType.read_back,
+                                          usage=spy.BufferUsage.copy_destination) for _ in range(SLOTS)]
+
+    def record(self, encoder_of, slot: int) -> None:
+        encoder_of().copy_buffer(self.host[slot], 0, self.counter, 0, 4)
+
+    def after_submit(self, slot: int) -> None:
+        pass
+
+    def read(self, slot: int) -> int:
+        return int(self.host[slot].to_numpy().view(np.uint32)[0])
+
+
+class _CudaCounter:
+    """The counter copied by cuMemcpyDtoHAsync into page-locked memory on the stream slang-rhi
+    submits to (the default one), then an event; reading waits for the event only."""
+
+    def __init__(self, context: int, counter):
+        cu = ctypes.CDLL("libcuda.so.1")
+        self.cu, self.context, self.counter = cu, ctypes.c_void_p(context), counter
+        cu.cuCtxPushCurrent_v2.argtypes = [ctypes.c_void_p]
+        cu.cuCtxPopCurrent_v2.argtypes = [ctypes.POINTER(ctypes.c_void_p)]
+        cu.cuMemHostAlloc.argtypes = [ctypes.POINTER(ctypes.c_void_p), ctypes.c_size_t, ctypes.c_uint]
+        cu.cuMemFreeHost.argtypes = [ctypes.c_void_p]
+        cu.cuMemcpyDtoHAsync_v2.argtypes = [ctypes.c_void_p, ctypes.c_uint64, ctypes.c_size_t, ctypes.c_void_p]
+        cu.cuEventCreate.argtypes = [ctypes.POINTER(ctypes.c_void_p), ctypes.c_uint]
+        cu.cuEventRecord.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        cu.cuEventSynchronize.argtypes = [ctypes.c_void_p]
+        cu.cuEventDestroy_v2.argtypes = [ctypes.c_void_p]
+        self.host = ctypes.c_void_p()
+        self.events = [ctypes.c_void_p() for _ in range(SLOTS)]
+
+        def make():
+            self._check(cu.cuMemHostAlloc(ctypes.byref(self.host), 4 * SLOTS, 0), "cuMemHostAlloc")
+            for e in self.events:
+                self._check(cu.cuEventCreate(ctypes.byref(e), 2), "cuEventCreate")  # 2: no timing
+
+        self._in_context(make)
+        self.values = (ctypes.c_uint32 * SLOTS).from_address(self.host.value)
+
+    @staticmethod
+    def _check(result: int, what: str) -> None:
+        if result != 0:
+            raise RuntimeError(f"{what}: CUDA error {result}")
+
+    def _in_context(self, work):
+        self._check(self.cu.cuCtxPushCurrent_v2(self.context), "cuCtxPushCurrent")
+        try:
+            return work()
+        finally:
+            popped = ctypes.c_void_p()
+            self.cu.cuCtxPopCurrent_v2(ctypes.byref(popped))
+
+    def record(self, encoder_of, slot: int) -> None:
+        pass
+
+    def after_submit(self, slot: int) -> None:
+        def copy():
+            self._check(self.cu.cuMemcpyDtoHAsync_v2(self.host.value + 4 * slot, int(self.counter.device_address), 4,
+                                                     None), "cuMemcpyDtoHAsync")
+            self._check(self.cu.cuEventRecord(self.events[slot], None), "cuEventRecord")
+
+        self._in_context(copy)
+
+    def read(self, slot: int) -> int:
+        self._in_context(lambda: self._check(self.cu.cuEventSynchronize(self.events[slot]), "cuEventSynchronize"))
+        return int(self.values[slot])
+
+    def __del__(self):
+        try:
+            def free():
+                for e in self.events:
+                    self.cu.cuEventDestroy_v2(e)
+                self.cu.cuMemFreeHost(self.host)
+
+            self._in_context(free)
+        except Exception:  # noqa: BLE001 - the process is ending or the device is gone
+            pass
