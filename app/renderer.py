@@ -41,8 +41,6 @@ class Job:
     exported: tuple = ()  # the readback channels the backend wrote into their links (the rest are copied)
     in_flight: bool = False  # the device may still work on this frame when GL shows the one before (finish)
     lag: int = 0  # 1: GL shows the frame before this one, which the device has done (compute decides)
-    in_flight: bool = False  # the device may still work on this frame when GL shows the one before (finish)
-    lag: int = 0  # 1: GL shows the frame before this one, which the device has done (compute decides)
 
     @property
     def cpu(self) -> bool:
@@ -205,7 +203,10 @@ class Renderer:
     def _drop_interop(self) -> None:
         if self.interop is not None:
             if self.rt is not None:
-                self.rt.drain()  # no frame in flight writes the links released here
+                try:
+                    self.rt.drain()  # no frame in flight writes the links released here
+                except DeviceError:
+                    pass  # a lost device writes nothing more
             self.interop.release()
         self.interop, self._interop_checked = None, None
         self._shown, self._unshown = None, False
@@ -350,7 +351,7 @@ class Renderer:
             self.options.set("tracer", "embree")  # the next frame (ray_tracing) builds Embree's
             raise
         with self.profiler.cpu("counters"):  # the frame's ray count and GPU timestamps, read once it is done
-            self.profiler.count("rays", backend.rays_traced - rays0)
+            self.profiler.count("rays", backend.frame_rays(rays0))
             gpu_ms = backend.gpu_ms
         for name, ms in gpu_ms.items():  # a GPU backend's own timestamps
             self.profiler.record(f"{name}_gpu", ms, "gpu")
@@ -483,6 +484,8 @@ class Renderer:
         for p in self.passes.values():
             p.release()
         self.uploads.release()
+        if self._fences is not None:
+            self._fences.release()
         self.gpu.release()
         if self.rt is not None:
             self._drop_interop()

@@ -70,6 +70,11 @@ class Backend:
 
     gpu_ms: dict = {}  # a device backend's GPU time per dispatch of the last frame read (ms), by name
 
+    def frame_rays(self, since: int) -> int:
+        """The rays of the frame that the profiler counts, given rays_traced before it: this
+        frame's here; a backend with frames in flight gives the last one it has read."""
+        return self.rays_traced - since
+
     def end_frame(self, lag: int = 0) -> None:
         """The frame's work is all recorded: a device backend submits it, then waits until at
         most lag frames are still in flight (0: this one is done), reading their ray counts and

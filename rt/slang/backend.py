@@ -108,6 +108,10 @@ class SlangBackend(Backend):
         """Rays traced by the frames that end_frame or drain read (no wait here)."""
         return self._flights.rays
 
+    def frame_rays(self, since: int) -> int:
+        """The rays of the last frame read: this one's after end_frame(0), else the one before's."""
+        return self._flights.last_rays
+
     @_device_errors
     def end_frame(self, lag: int = 0) -> None:
         """The frame's work submitted; then the frames in flight read (their ray counts and

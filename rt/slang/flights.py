@@ -34,6 +34,7 @@ class Flights:
         self.current = Flight(0)
         self.pending: deque[Flight] = deque()
         self.rays = 0  # rays of the frames read so far
+        self.last_rays = 0  # those of the last frame read
         self._counter_read = 0  # the counter's value when last read (it wraps at 2^32: differences are taken)
         self.gpu_ms: dict = {}  # the last frame read's dispatch times
         self.counter = _CudaCounter(cuda_context, counter) if kind == "cuda" else _VulkanCounter(device, counter)
@@ -58,11 +59,13 @@ class Flights:
             f = self.pending.popleft()
             if f.submit is not None:
                 self.device.wait_for_submit(f.submit)
+            before = self.rays
             if f.counted:
                 value = self.counter.read(f.slot)
                 self.rays += (value - self._counter_read) % 2**32
                 self._counter_read = value
             self.rays += f.primary
+            self.last_rays = self.rays - before
             self.gpu_ms = {name: timer() for name, timer in f.timers.items()}
 
 
