@@ -83,7 +83,6 @@ class SlangBackend(Backend):
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
         self._env_texels = None  # (the map's texels, their device buffer, its distribution's, its cells)
         self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
-        self._busy = False  # the frame's work was submitted since the last wait for the device
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
         self._submitted = None  # the id of the last submission
         self._log_count = self._buffer("log.count", 1, 4)
@@ -175,7 +174,6 @@ class SlangBackend(Backend):
         goes through the device's queue too)."""
         self._submit()
         self.device.wait()
-        self._busy = False
 
     def _encoding(self):
         """The command encoder that the frame's dispatches are recorded in."""
@@ -188,7 +186,6 @@ class SlangBackend(Backend):
         if self._encoder is not None:
             encoder, self._encoder = self._encoder, None
             self._submitted = self.device.submit_command_buffer(encoder.finish())
-            self._busy = True
 
     def _submit_now(self) -> int | None:
         self._submit()

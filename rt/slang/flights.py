@@ -30,7 +30,7 @@ class Flight:
 
 class Flights:
     def __init__(self, device, kind: str, counter, cuda_context: int | None = None):
-        self.device, self.counter_buffer = device, counter
+        self.device = device
         self.current = Flight(0)
         self.pending: deque[Flight] = deque()
         self.rays = 0  # rays of the frames read so far
