@@ -84,7 +84,10 @@ def open_device(kind: str):
     if found is None:
         spy = _slangpy()
         try:
-            options = spy.SlangCompilerOptions({"include_paths": [str(SHADER_DIR)]})
+            # fast floating point: NVRTC's approximate division, square root and transcendentals,
+            # as NVIDIA's Vulkan compiler already uses (report/HISTORY.md: what it saves on CUDA)
+            options = spy.SlangCompilerOptions({"include_paths": [str(SHADER_DIR)],
+                                                "floating_point_mode": spy.SlangFloatingPointMode.fast})
             device_type = spy.DeviceType.vulkan if kind == "vulkan" else spy.DeviceType.cuda
             cache = _cache_dir(kind)
             with _quiet():
