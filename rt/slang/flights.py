@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rt.slang.libcuda import VOID, Driver, P
+
 SLOTS = 2  # frames whose results are kept: the one being recorded and one in flight
 
 
@@ -94,63 +96,44 @@ class _CudaCounter:
     submits to (the default one), then an event; reading waits for the event only."""
 
     def __init__(self, context: int, counter):
-        cu = ctypes.CDLL("libcuda.so.1")
-        self.cu, self.context, self.counter = cu, ctypes.c_void_p(context), counter
-        cu.cuCtxPushCurrent_v2.argtypes = [ctypes.c_void_p]
-        cu.cuCtxPopCurrent_v2.argtypes = [ctypes.POINTER(ctypes.c_void_p)]
-        cu.cuMemHostAlloc.argtypes = [ctypes.POINTER(ctypes.c_void_p), ctypes.c_size_t, ctypes.c_uint]
-        cu.cuMemFreeHost.argtypes = [ctypes.c_void_p]
-        cu.cuMemcpyDtoHAsync_v2.argtypes = [ctypes.c_void_p, ctypes.c_uint64, ctypes.c_size_t, ctypes.c_void_p]
-        cu.cuEventCreate.argtypes = [ctypes.POINTER(ctypes.c_void_p), ctypes.c_uint]
-        cu.cuEventRecord.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
-        cu.cuEventSynchronize.argtypes = [ctypes.c_void_p]
-        cu.cuEventDestroy_v2.argtypes = [ctypes.c_void_p]
-        self.host = ctypes.c_void_p()
-        self.events = [ctypes.c_void_p() for _ in range(SLOTS)]
+        u64, size = ctypes.c_uint64, ctypes.c_size_t
+        self.cu = Driver({"cuMemHostAlloc": [P(VOID), size, ctypes.c_uint], "cuMemFreeHost": [VOID],
+                          "cuMemcpyDtoHAsync_v2": [VOID, u64, size, VOID],
+                          "cuEventCreate": [P(VOID), ctypes.c_uint], "cuEventRecord": [VOID, VOID],
+                          "cuEventSynchronize": [VOID], "cuEventDestroy_v2": [VOID]})
+        self.context, self.counter = context, counter
+        self.host = VOID()
+        self.events = [VOID() for _ in range(SLOTS)]
 
         def make():
-            self._check(cu.cuMemHostAlloc(ctypes.byref(self.host), 4 * SLOTS, 0), "cuMemHostAlloc")
+            self.cu.call("cuMemHostAlloc", ctypes.byref(self.host), 4 * SLOTS, 0)
             for e in self.events:
-                self._check(cu.cuEventCreate(ctypes.byref(e), 2), "cuEventCreate")  # 2: no timing
+                self.cu.call("cuEventCreate", ctypes.byref(e), 2)  # 2: no timing
 
-        self._in_context(make)
+        self.cu.in_context(context, make)
         self.values = (ctypes.c_uint32 * SLOTS).from_address(self.host.value)
-
-    @staticmethod
-    def _check(result: int, what: str) -> None:
-        if result != 0:
-            raise RuntimeError(f"{what}: CUDA error {result}")
-
-    def _in_context(self, work):
-        self._check(self.cu.cuCtxPushCurrent_v2(self.context), "cuCtxPushCurrent")
-        try:
-            return work()
-        finally:
-            popped = ctypes.c_void_p()
-            self.cu.cuCtxPopCurrent_v2(ctypes.byref(popped))
 
     def record(self, encoder_of, slot: int) -> None:
         pass
 
     def after_submit(self, slot: int) -> None:
         def copy():
-            self._check(self.cu.cuMemcpyDtoHAsync_v2(self.host.value + 4 * slot, int(self.counter.device_address), 4,
-                                                     None), "cuMemcpyDtoHAsync")
-            self._check(self.cu.cuEventRecord(self.events[slot], None), "cuEventRecord")
+            self.cu.call("cuMemcpyDtoHAsync_v2", self.host.value + 4 * slot, int(self.counter.device_address), 4, None)
+            self.cu.call("cuEventRecord", self.events[slot], None)
 
-        self._in_context(copy)
+        self.cu.in_context(self.context, copy)
 
     def read(self, slot: int) -> int:
-        self._in_context(lambda: self._check(self.cu.cuEventSynchronize(self.events[slot]), "cuEventSynchronize"))
+        self.cu.in_context(self.context, lambda: self.cu.call("cuEventSynchronize", self.events[slot]))
         return int(self.values[slot])
 
     def __del__(self):
         try:
             def free():
                 for e in self.events:
-                    self.cu.cuEventDestroy_v2(e)
-                self.cu.cuMemFreeHost(self.host)
+                    self.cu.call_unchecked("cuEventDestroy_v2", e)
+                self.cu.call_unchecked("cuMemFreeHost", self.host)
 
-            self._in_context(free)
+            self.cu.in_context(self.context, free)
         except Exception:  # noqa: BLE001 - the process is ending or the device is gone
             pass
