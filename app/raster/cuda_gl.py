@@ -30,13 +30,8 @@ class CudaShare:
         self.ctx, self.backend, self.cu = ctx, backend, _driver()
         self.context = backend.cuda_context()
 
-    def _call(self, name: str, *args) -> None:
-        try:
-            self.cu.call(name, *args)
-        except CudaError as e:
-            raise Unavailable(f"CUDA's GL interop failed ({e})") from None
-
     def _in_context(self, work) -> None:
+        """work() in the backend's CUDA context; a failed driver call in it is Unavailable."""
         try:
             self.cu.in_context(self.context, work)
         except CudaError as e:
@@ -46,8 +41,8 @@ class CudaShare:
         device, _ = self.backend.shared_buffer(nbytes)
         buffer = self.ctx.buffer(reserve=nbytes)
         resource = ctypes.c_void_p()
-        self._in_context(lambda: self._call("cuGraphicsGLRegisterBuffer", ctypes.byref(resource), buffer.glo,
-                                            REGISTER_NONE))
+        self._in_context(lambda: self.cu.call("cuGraphicsGLRegisterBuffer", ctypes.byref(resource), buffer.glo,
+                                               REGISTER_NONE))
         link = Link(buffer, device, nbytes, None)
         link.resource = resource
 
@@ -64,15 +59,15 @@ class CudaShare:
         resources = (ctypes.c_void_p * len(links))(*[link.resource.value for link in links])
 
         def work():
-            self._call("cuGraphicsMapResources", len(links), resources, None)
+            self.cu.call("cuGraphicsMapResources", len(links), resources, None)
             try:
                 for link in links:
                     pointer, size = ctypes.c_uint64(), ctypes.c_size_t()
-                    self._call("cuGraphicsResourceGetMappedPointer_v2", ctypes.byref(pointer), ctypes.byref(size),
-                               link.resource)
+                    self.cu.call("cuGraphicsResourceGetMappedPointer_v2", ctypes.byref(pointer), ctypes.byref(size),
+                                 link.resource)
                     device = int(link.device.device_address)
                     dst, src = (pointer.value, device) if to_gl else (device, pointer.value)
-                    self._call("cuMemcpyDtoD_v2", dst, src, link.nbytes)
+                    self.cu.call("cuMemcpyDtoD_v2", dst, src, link.nbytes)
             finally:
                 # on the default stream, as slang-rhi's work: after the device's work that wrote
                 # the buffer, before its next; GL's work after the unmap waits for the copies on
