@@ -182,17 +182,20 @@ def rough_metal_floors():
 def test_glossy_reflections_converge_to_the_reference(gl, tmp_path, sets):
     """reflections.glossy: rough metal floors under a constant sky, no lights: one ray a frame
     from the GGX lobe, accumulated, gives what the reference path tracer gives (one bounce);
-    without it the pass shows them black, as the study's mirror-only reflections."""
+    without it the pass's sample of the environment (both lobes, as a light) gives the same; with
+    lit=false (the study's mirror-only reflections of material colours) they stay black."""
     scene = _load(tmp_path, rough_metal_floors())
     sky = ("env=1,1,1",) + sets
     pos = run(gl, scene, "position", size=(64, 36))
     floor = _erode(np.abs(pos).sum(-1) > 0)
     glossy = run(gl, scene, "reflections", frames=48, size=(64, 36), sets=sky + ("reflections.glossy=true",))
     ref = run(gl, scene, "reference", frames=48, size=(64, 36), sets=sky + ("reference.max_bounces=1",))
-    plain = run(gl, scene, "reflections", size=(64, 36), sets=sky)
-    assert floor.sum() > 300 and plain[floor].max() < 1e-6
+    plain = run(gl, scene, "reflections", frames=48, size=(64, 36), sets=sky)
+    study = run(gl, scene, "reflections", size=(64, 36), sets=sky + ("reflections.lit=false",))
+    assert floor.sum() > 300 and np.abs(study[floor] - 1.0).max() < 1e-6  # the albedo (white), unlit
     assert 0.6 < glossy[floor].mean() < 1.0  # single scattering loses some light at these roughnesses
-    assert glossy[floor].mean() == pytest.approx(ref[floor].mean(), rel=0.01)
-    for side in (pos[..., 0] < 0, pos[..., 0] > 0):  # each roughness on its own
-        m = floor & side
-        assert glossy[m].mean() == pytest.approx(ref[m].mean(), rel=0.02)
+    for got in (glossy, plain):
+        assert got[floor].mean() == pytest.approx(ref[floor].mean(), rel=0.01)
+        for side in (pos[..., 0] < 0, pos[..., 0] > 0):  # each roughness on its own
+            m = floor & side
+            assert got[m].mean() == pytest.approx(ref[m].mean(), rel=0.02)

@@ -126,6 +126,7 @@ def accumulator(ggx, D, rows, rough):
 
 
 GLOSSY_DIM = 72  # the reflections pass's glossy rays: their two numbers (above every mirror level's lights)
+REFLECTION_ENV_DIM = 74  # its environment samples, 3 numbers each: the points' from here, level l's hits' 3 (l + 1) on
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)

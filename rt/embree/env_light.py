@@ -1,5 +1,6 @@
 """Direct light from the environment at points, with shadow rays: the shadows pass's sample of
-the sky besides its lights (shaders/rt/shadows.slang does the same on the device). One ray a
+the sky besides its lights, GI's at its bounce hits, the reflections pass's at its points and
+mirror hits (shaders/rt/paths.slang environment_light does the same on the device). One ray a
 point, its direction drawn by one-sample multiple importance sampling (Veach's balance
 heuristic over a mixture): from a map's distribution (rt/environment.py EnvDistribution, its
 float32 steps) with probability MAP_SHARE, else from the BRDF (a lobe picked ~ its estimated
@@ -95,8 +96,9 @@ def brdf_density(p_spec, a, vx, vy, vz, nx, ny, nz, x, y, z):
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0,
-              dx, dy, dz, dd, er, eg, eb, nb):
+              diffuse, dx, dy, dz, dd, er, eg, eb, nb):
     cdf, cells_u, cells_v = dist
+    masked = diffuse.shape[0] > 0
     share = MAP_SHARE if cells_u > 0 else ZERO
     ggx = acc.shape[1] >= brdf.GGX_COLS
     for j in range(nb):
@@ -104,6 +106,8 @@ def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far
         key = keys[j]
         u0, u1, u2 = uniform(key, dim), uniform(key, dim + 1), uniform(key, dim + 2)
         p_spec, a, vx, vy, vz = lobe_share(ggx, acc, i, albedo[i], metallic[i], nx[j], ny[j], nz[j])
+        if masked and diffuse[i]:
+            p_spec = ZERO
         if u0 < share:
             x, y, z, p_map = map_direction(cdf, cells_u, cells_v, shift, u1, u2)
         else:
@@ -127,10 +131,24 @@ def env_shadow_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic)
     albedo, metallic: theirs, from row 0), its shadow ray traced into acc (tr with a scene) or,
     without one, its light added unshadowed; returns the rays traced. env: gather.env_args;
     dist: (cdf, cells u, cells v) of a map, cells 0 for the others."""
+    return env_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic, np.zeros(0, np.bool_))
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def env_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic, diffuse):
+    """env_shadow_rays where the points with diffuse[i] (none when diffuse is empty) take the
+    environment's light on their diffuse lobe alone, drawn from the map and the cosine: points
+    whose specular lobe another ray brings (the reflections pass's mirror and glossy rays)."""
     kind, color, horizon, zenith, ground, texels = env
     n = keys.shape[0]
     if kind == 0 or n == 0:
         return 0
+    masked = diffuse.shape[0] > 0 and acc.shape[1] >= brdf.GGX_COLS
+    kept = np.empty((n if masked else 0, 6), F)  # the specular sums of the diffuse-only points, kept
+    if masked:
+        for i in range(n):
+            for c in range(6):
+                kept[i, c] = acc[i, brdf.SUM_EDV + c]
     terms = environment_terms(kind, color, horizon, zenith, ground)
     shift = F(color[1]) if kind == 3 else ZERO
     packed = tr[0] == 0
@@ -145,11 +163,16 @@ def env_shadow_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic)
         b1 = min(b0 + raygen.RUN, n)
         c0, c1 = g0 + b0, g0 + b1
         _env_step(G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1], G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1],
-                  dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0, blk[0], blk[1], blk[2], blk[3],
-                  blk[4], blk[5], blk[6], b1 - b0)
+                  dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0, diffuse, blk[0], blk[1], blk[2],
+                  blk[3], blk[4], blk[5], blk[6], b1 - b0)
         m = raygen._emit(G, g0, b0, b1 - b0, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc,
                          True)
     if packed:  # no scene to trace with (never in the shadows pass): the light unshadowed
         raygen.add_unblocked(acc, idx, direction, e, np.zeros(m, np.bool_), m, G, g0)
-        return 0
+        m = 0
+    if masked:
+        for i in range(n):
+            if diffuse[i]:
+                for c in range(6):
+                    acc[i, brdf.SUM_EDV + c] = kept[i, c]
     return m

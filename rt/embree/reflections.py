@@ -1,12 +1,14 @@
 """Ray-traced reflections: where the G-buffer's roughness is below the threshold, trace the
 mirror direction and shade the hit; Schlick's Fresnel blends the reflection with the local
-colour. `lit=false` reproduces the study (hits show their material colour only)."""
+colour. Lit colours (points and hits) take one light sample and one of the environment, the
+latter on the diffuse lobe alone where a mirror or glossy ray brings the specular one.
+`lit=false` reproduces the study (hits show their material colour only)."""
 from __future__ import annotations
 
 import numpy as np
 
 from rt.effects import STREAM
-from rt.embree import brdf, gather, raygen
+from rt.embree import brdf, env_light, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
@@ -15,20 +17,31 @@ _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, refl):
+def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, below, refl):
     """One mirror bounce: from the points sel[k] of (P, N, NG) seen along V[k] (keys[k]: their
     generators), ray k's closest hit shaded (lit: with its own light sample, dimensions
-    dim0..dim0+3; ggx: glTF's BRDF, brdf.py) and its colour; refl[k] gains the environment where
-    ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
+    dim0..dim0+3, and the environment's, _env_sample; ggx: glTF's BRDF, brdf.py) and its colour;
+    hits smoother than `below` reflect further; refl[k] gains the environment where ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
     (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
     gather.mirror_rays(P, N, NG, V, sel, o, d)
-    return _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl)
+    return _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl):
+def _env_sample(scene, frame, G, keys, dim0, acc, albedo, metallic, diffuse):
+    """The environment's light at the points of G (surface_soa rows; keys, acc, albedo,
+    metallic: theirs) with its shadow ray (env_light.env_rays): on the diffuse lobe alone
+    where diffuse[i] (a mirror or glossy ray brings the specular one); its numbers from
+    brdf.REFLECTION_ENV_DIM + 3 (dim0 / 4), dim0 being the points' light dimensions. Returns
+    the rays traced."""
+    return env_light.env_rays(G, 0, keys, brdf.REFLECTION_ENV_DIM + 3 * (dim0 // 4), frame.env, frame.env_dist,
+                              scene.far, frame.target, acc, albedo, metallic, diffuse)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
     """_mirror_hits for rays (o, d) already made (keys[k]: ray k's generator)."""
     (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
      colors) = scene.mesh
@@ -55,6 +68,7 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, refl):
         raygen.surface_soa(HP, HN, HNG, hg)
         traced += raygen.direct_one(hg, 0, hkeys, scene.lights, dim0, scene.far, frame.target,
                                     hdirect)
+        traced += _env_sample(scene, frame, hg, hkeys, dim0, hdirect, halb, hmetal, hrough < below)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)
     return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
@@ -89,8 +103,9 @@ def _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmeta
         skeys = np.empty(m, np.uint64)
         for j in range(m):
             skeys[j] = pkeys[sel[lv, j]]
+        below = thr if lv + 2 < depth else np.float32(0.0)  # whether this level's hits reflect again
         h, dd, P2, N2, NG2, alb2, rough2, metal2, emis2, col2, keys2, t = _mirror_hits(
-            scene, frame, pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ggx, refl[lv])
+            scene, frame, pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ggx, below, refl[lv])
         traced += t
         k = h.shape[0]
         hit_count[lv] = k
@@ -135,7 +150,8 @@ def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
         gather.glossy_ray(frame.p[i], frame.n[i], frame.ng[i], frame.view_dir[p], frame.albedo[i],
                           frame.metallic[i], frame.roughness[i], keys[j], o[k], d[k], weight[k])
     refl = np.zeros((m, 3), np.float32)
-    hits, _, _, _, _, _, _, _, _, colour, _, traced = _hits_of(scene, frame, o, d, gkeys, 4, True, True, refl)
+    hits, _, _, _, _, _, _, _, _, colour, _, traced = _hits_of(scene, frame, o, d, gkeys, 4, True, True,
+                                                               np.float32(0.0), refl)
     for i in range(hits.shape[0]):
         for a in range(3):
             refl[hits[i], a] = colour[i, a]
@@ -163,11 +179,12 @@ def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx,
             return traced
         keys = raygen.block_keys(pix, b0, b1, base)
         local = np.empty((b1 - b0, 3), np.float32)
-        traced += _local(scene, frame, b0, b1, keys, lit, ggx, local)
+        traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy and ggx, local)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
         refl = np.zeros((near.shape[0], 3), np.float32)
         hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-            scene, frame, frame.p, frame.n, frame.ng, V, smooth, skeys, 4, lit, ggx, refl)
+            scene, frame, frame.p, frame.n, frame.ng, V, smooth, skeys, 4, lit, ggx,
+            thr if depth > 1 else np.float32(0.0), refl)
         traced += t
         if depth > 1:
             traced += _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d,
@@ -190,25 +207,32 @@ def reflections_one(counter, bounds, scene, frame, base, thr, lit, ggx):
             return traced
         keys = raygen.block_keys(pix, b0, b1, base)
         local = np.empty((b1 - b0, 3), np.float32)
-        traced += _local(scene, frame, b0, b1, keys, lit, ggx, local)
+        traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, False, local)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
         refl = np.zeros((near.shape[0], 3), np.float32)
         hits, _, _, _, _, _, _, _, _, colour, _, t = _mirror_hits(scene, frame, frame.p, frame.n, frame.ng, V, smooth,
-                                                                  skeys, 4, lit, ggx, refl)
+                                                                  skeys, 4, lit, ggx, np.float32(0.0), refl)
         traced += t
         _write(frame, b0, b1, local, _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx))
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _local(scene, frame, b0, b1, keys, lit, ggx, local):
-    """The local colour of points b0..b1 into local (lit: one chosen light, shadowed; else the
-    albedo, as the study); returns the rays traced."""
+def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local):
+    """The local colour of points b0..b1 into local (lit: one chosen light, shadowed, and the
+    environment's sample, on the diffuse lobe alone where a mirror ray (smoother than thr) or a
+    glossy ray brings the specular one; else the albedo, as the study); returns the rays traced."""
     albedo = frame.albedo[b0:b1]
     if not lit:
         local[:] = albedo
         return 0
     acc = brdf.accumulator(ggx, frame.view_dir, frame.pix[b0:b1], frame.roughness[b0:b1])
     traced = raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, acc)
+    if frame.env[0] != 0:
+        diffuse = frame.roughness[b0:b1] < thr
+        if glossy:
+            diffuse[:] = True
+        traced += env_light.env_rays(frame.points, b0, keys, brdf.REFLECTION_ENV_DIM, frame.env, frame.env_dist,
+                                     scene.far, frame.target, acc, albedo, frame.metallic[b0:b1], diffuse)
     for j in range(b1 - b0):
         for a in range(3):
             local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
