@@ -41,7 +41,7 @@ def frames(gl, sets, cameras, size=(96, 64)):
 
 
 @pytest.mark.parametrize("denoiser,sets", [("svgf", ()), ("oidn", ()), ("svgf", ("tracer=vulkan",)),
-                                           ("svgf", ("gbuffer=rt",))])
+                                           ("svgf", ("gbuffer=rt",)), ("svgf", ("svgf.feedback=true", "svgf.alpha=0.2"))])
 def test_a_denoised_frame_keeps_the_mean_and_loses_the_noise(gl, denoiser, sets):
     still = [camera()] * 16
     raw, floor = frames(gl, sets, still[:1])
@@ -59,14 +59,15 @@ def test_a_denoised_frame_keeps_the_mean_and_loses_the_noise(gl, denoiser, sets)
 
 def test_svgf_history_follows_a_moving_camera(gl):
     """Eight frames flying forward: reprojected history keeps the noise below what one frame's
-    spatial filter leaves (the first frame, which has no history)."""
+    spatial filter leaves (the first frame, which has no history), though the filter narrows as
+    the history's average converges (svgf.feedback=false)."""
     moving = [camera(-0.05 * k) for k in range(8)]
     first, floor = frames(gl, ("denoise=svgf",), moving[:1])
     last, floor_last = frames(gl, ("denoise=svgf",), moving)
     a, b = first[8:-8, 8:-8][floor[8:-8, 8:-8]], last[8:-8, 8:-8][floor_last[8:-8, 8:-8]]
     print(f"svgf moving: std {a.std():.4f} (first frame) -> {b.std():.4f} (eighth)")
     assert abs(b.mean() - EXACT) < 0.05 * EXACT
-    assert b.std() < 0.7 * a.std()
+    assert b.std() < 0.8 * a.std()
 
 
 def test_svgf_restarts_where_the_surface_changes(gl):

@@ -2,12 +2,14 @@
 of a ray-traced pass's radiance, as GL passes on the raster G-buffer, so it serves every
 backend: the first hit's emission left out (added back at the end: light sources stay sharp),
 temporal accumulation of the lighting demodulated by albedo through the motion
-vectors, with disocclusion tests (shaders/svgf_temporal.frag), per-pixel variance from the
-temporal moments or, for a short history, from the neighbours (svgf_variance.frag), then
+vectors, with disocclusion tests (shaders/svgf_temporal.frag), an even average of a still
+view's first 1/alpha frames; the variance of that average (the temporal moments' over the
+frames it holds or, for a short history, the neighbours', svgf_variance.frag), then
 `iterations` a-trous passes with edge-stopping on depth, normal and luminance, the latter
 the reprojected history's (which this frame's noise has no part in: with the frame's own, the
-filter leaned towards each pixel's noise, 1-ray AO 3.8 % dark) (svgf_atrous.frag); the first one's output is the next frame's history, the last multiplies
-the albedo back."""
+filter leaned towards each pixel's noise, 1-ray AO 3.8 % dark) (svgf_atrous.frag), so that the
+filter narrows as the average converges; the last multiplies the albedo back. The next frame
+reprojects the temporal average (with `feedback`, the first iteration's output, as the paper)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -24,9 +26,13 @@ GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 class SvgfOptions:
     iterations: int = opt(3, "a-trous iterations (5 x 5 taps, 2^i apart: 3 reach 14 pixels; the paper used 5, which "
                           "blurred the built-in scenes' lighting more than it removed noise)", 1, 8)
-    alpha: float = opt(0.2, "weight of the new frame in the temporal accumulation (at least)", 0.01, 1.0)
+    alpha: float = opt(1 / 32, "weight of the new frame in the temporal accumulation (at least: a still view "
+                       "averages its first 1/alpha frames evenly; the paper's 0.2 keeps about 9)", 0.01, 1.0)
     moments_alpha: float = opt(0.2, "weight of the new frame in the luminance moments (at least)", 0.01, 1.0)
-    phi_color: float = opt(4.0, "luminance edge-stopping, in standard deviations", 0.1, 1000.0)
+    feedback: bool = opt(False, "reproject the first a-trous iteration's output, as the paper does (blurs the "
+                         "history frame after frame), instead of the temporal average")
+    phi_color: float = opt(8.0, "luminance edge-stopping, in standard deviations of the averaged lighting", 0.1,
+                           1000.0)
     phi_normal: float = opt(128.0, "normal edge-stopping exponent", 1.0, 1024.0)
     phi_depth: float = opt(1.0, "depth edge-stopping, in 1 % of the depth per a-trous step", 0.01, 100.0)
 
@@ -78,7 +84,7 @@ class SvgfPass(Pass):
             prog, vao = fullscreen(self.ctx, "svgf_variance.frag")
             self._draw(self.variance, prog, vao, frame, ("g_position", "g_normal", "g_face"), {
                 "color": self.temporal["color"], "moments": self.temporal["moments"]},
-                phi_normal=float(opts.phi_normal))
+                phi_normal=float(opts.phi_normal), alpha=float(opts.alpha), of_average=int(not opts.feedback))
             source = self.variance["c"]
             prog, vao = fullscreen(self.ctx, "svgf_atrous.frag")
             n = int(opts.iterations)
@@ -90,9 +96,10 @@ class SvgfPass(Pass):
                            step=1 << i, phi_color=float(opts.phi_color), phi_normal=float(opts.phi_normal),
                            phi_depth=float(opts.phi_depth), remodulate=int(last))
                 source = target["c"]
-                if i == 0:  # what the next frame reprojects: the first iteration's lighting
+                if i == 0:  # what the next frame reprojects: the temporal average (or the first iteration's)
                     keep, kvao = fullscreen(self.ctx, "svgf_history.frag")
-                    first = self.variance["c"] if last else source  # one iteration: its input
+                    first = ((self.variance["c"] if last else source) if opts.feedback  # one iteration: its input
+                             else self.temporal["color"])
                     self._draw(self.history, keep, kvao, frame, ("g_position", "g_normal", "g_face"), {
                         "filtered": first, "color": self.temporal["color"], "moments": self.temporal["moments"]})
         self.valid = True
