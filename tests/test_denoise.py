@@ -41,7 +41,8 @@ def frames(gl, sets, cameras, size=(96, 64)):
 
 
 @pytest.mark.parametrize("denoiser,sets", [("svgf", ()), ("oidn", ()), ("svgf", ("tracer=vulkan",)),
-                                           ("svgf", ("gbuffer=rt",)), ("svgf", ("svgf.feedback=true", "svgf.alpha=0.2"))])
+                                           ("svgf", ("gbuffer=rt",)),
+                                           ("svgf", ("svgf.feedback=true", "svgf.alpha=0.2"))])
 def test_a_denoised_frame_keeps_the_mean_and_loses_the_noise(gl, denoiser, sets):
     still = [camera()] * 16
     raw, floor = frames(gl, sets, still[:1])

@@ -21,7 +21,8 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, below, re
     """One mirror bounce: from the points sel[k] of (P, N, NG) seen along V[k] (keys[k]: their
     generators), ray k's closest hit shaded (lit: with its own light sample, dimensions
     dim0..dim0+3, and the environment's, _env_sample; ggx: glTF's BRDF, brdf.py) and its colour;
-    hits smoother than `below` reflect further; refl[k] gains the environment where ray k missed. Returns the rays that hit (hits), every ray's direction (d), the hits' shading
+    hits smoother than `below` reflect further; refl[k] gains the environment where ray k missed.
+    Returns the rays that hit (hits), every ray's direction (d), the hits' shading
     (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
