@@ -11,14 +11,14 @@ from tests.test_rt import run
 ALBEDO = 0.5
 
 
-def corner():
-    """A floor (x > 0) and a wall (x = 0, facing +x), both diffuse, 400 m across and 200 m high:
-    from any point of either, the half of the hemisphere towards the other is the other, the
-    rest the sky."""
+def corner(**material):
+    """A floor (x > 0) and a wall (x = 0, facing +x), of one material (by default diffuse grey),
+    400 m across and 200 m high: from any point of either, the half of the hemisphere towards
+    the other is the other, the rest the sky."""
     b = SceneBuilder("corner")
-    b.material("grey", (ALBEDO,) * 3, roughness=1.0)
-    b.add(grid(4, 4), "grey", trs((200, 0, 0), 0, (400, 1, 400)))
-    b.add(grid(4, 4), "grey", trs((0, 100, 0), np.pi / 2, (400, 1, 200), rotate_x=np.pi / 2))
+    b.material("m", **(material or dict(color=(ALBEDO,) * 3, roughness=1.0)))
+    b.add(grid(4, 4), "m", trs((200, 0, 0), 0, (400, 1, 400)))
+    b.add(grid(4, 4), "m", trs((0, 100, 0), np.pi / 2, (400, 1, 200), rotate_x=np.pi / 2))
     b.view("corner", (4.0, 2.0, 3.0), (0.0, 0.5, 0.0), 60)
     return b.build()
 

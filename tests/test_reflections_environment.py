@@ -5,20 +5,8 @@ import numpy as np
 import pytest
 
 from app.camera import Camera
-from scenes.builder import SceneBuilder, grid, trs
+from tests.test_gi_environment import ALBEDO, corner
 from tests.test_rt import run
-
-ALBEDO = 0.5
-
-
-def corner(material):
-    """A floor (x > 0) and a wall (x = 0, facing +x), 400 m across and 200 m high: from any point
-    of either, the half of the hemisphere towards the other is the other, the rest the sky."""
-    b = SceneBuilder("corner")
-    b.material("m", **material)
-    b.add(grid(4, 4), "m", trs((200, 0, 0), 0, (400, 1, 400)))
-    b.add(grid(4, 4), "m", trs((0, 100, 0), np.pi / 2, (400, 1, 200), rotate_x=np.pi / 2))
-    return b.build()
 
 
 def render(gl, scene, sets):
@@ -37,7 +25,7 @@ def test_rough_points_are_lit_by_the_environment(gl, tracer):
     """Rough Lambert planes (no mirror ray) under a uniform sky of radiance 1: half of each
     point's hemisphere (cosine-weighted) is sky, so it leaves albedo / 2 (0 when the pass saw
     lights alone)."""
-    scene = corner(dict(color=(ALBEDO,) * 3, roughness=1.0))
+    scene = corner(color=(ALBEDO,) * 3, roughness=1.0)
     img = render(gl, scene, (f"tracer={tracer}", "brdf=lambert"))
     np.testing.assert_allclose(img.mean(0), ALBEDO / 2, rtol=0.015)
 
@@ -49,7 +37,7 @@ def test_mirror_corner_counts_the_sky_once(gl, tracer, depth):
     shows the sky after one or two mirrors, so 1 everywhere. With one mirror the wall's hits take
     the sky from their own GGX sample (was 0: lights alone); with two, their mirror ray brings it,
     and a sample of the specular lobe as well would count it twice (about 2)."""
-    scene = corner(dict(color=(1.0, 1.0, 1.0), roughness=0.0, metallic=1.0))
+    scene = corner(color=(1.0, 1.0, 1.0), roughness=0.0, metallic=1.0)
     img = render(gl, scene, (f"tracer={tracer}", "brdf=ggx", f"reflections.max_depth={depth}"))
     np.testing.assert_allclose(img.mean(0), 1.0, rtol=0.015)
     assert np.percentile(np.abs(img - 1.0), 95) < 0.05

@@ -98,8 +98,10 @@ class SvgfPass(Pass):
                 source = target["c"]
                 if i == 0:  # what the next frame reprojects: the temporal average (or the first iteration's)
                     keep, kvao = fullscreen(self.ctx, "svgf_history.frag")
-                    first = ((self.variance["c"] if last else source) if opts.feedback  # one iteration: its input
-                             else self.temporal["color"])
+                    if opts.feedback:
+                        first = self.variance["c"] if last else source  # one iteration: its input
+                    else:
+                        first = self.temporal["color"]
                     self._draw(self.history, keep, kvao, frame, ("g_position", "g_normal", "g_face"), {
                         "filtered": first, "color": self.temporal["color"], "moments": self.temporal["moments"]})
         self.valid = True

@@ -147,8 +147,9 @@ def env_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic, diffus
     kept = np.empty((n if masked else 0, 6), F)  # the specular sums of the diffuse-only points, kept
     if masked:
         for i in range(n):
-            for c in range(6):
-                kept[i, c] = acc[i, brdf.SUM_EDV + c]
+            if diffuse[i]:
+                for c in range(6):
+                    kept[i, c] = acc[i, brdf.SUM_EDV + c]
     terms = environment_terms(kind, color, horizon, zenith, ground)
     shift = F(color[1]) if kind == 3 else ZERO
     packed = tr[0] == 0

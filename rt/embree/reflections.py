@@ -31,13 +31,13 @@ def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, below, re
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _env_sample(scene, frame, G, keys, dim0, acc, albedo, metallic, diffuse):
-    """The environment's light at the points of G (surface_soa rows; keys, acc, albedo,
-    metallic: theirs) with its shadow ray (env_light.env_rays): on the diffuse lobe alone
-    where diffuse[i] (a mirror or glossy ray brings the specular one); its numbers from
-    brdf.REFLECTION_ENV_DIM + 3 (dim0 / 4), dim0 being the points' light dimensions. Returns
-    the rays traced."""
-    return env_light.env_rays(G, 0, keys, brdf.REFLECTION_ENV_DIM + 3 * (dim0 // 4), frame.env, frame.env_dist,
+def _env_sample(scene, frame, G, g0, keys, dim0, acc, albedo, metallic, diffuse):
+    """The environment's light at the points of G (surface_soa rows from column g0; keys, acc,
+    albedo, metallic: theirs, from row 0) with its shadow ray (env_light.env_rays): on the
+    diffuse lobe alone where diffuse[i] (a mirror or glossy ray brings the specular one); its
+    numbers from brdf.REFLECTION_ENV_DIM + 3 (dim0 / 4), dim0 being the points' light
+    dimensions. Returns the rays traced."""
+    return env_light.env_rays(G, g0, keys, brdf.REFLECTION_ENV_DIM + 3 * (dim0 // 4), frame.env, frame.env_dist,
                               scene.far, frame.target, acc, albedo, metallic, diffuse)
 
 
@@ -69,7 +69,7 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
         raygen.surface_soa(HP, HN, HNG, hg)
         traced += raygen.direct_one(hg, 0, hkeys, scene.lights, dim0, scene.far, frame.target,
                                     hdirect)
-        traced += _env_sample(scene, frame, hg, hkeys, dim0, hdirect, halb, hmetal, hrough < below)
+        traced += _env_sample(scene, frame, hg, 0, hkeys, dim0, hdirect, halb, hmetal, hrough < below)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)
     return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
@@ -232,8 +232,7 @@ def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local):
         diffuse = frame.roughness[b0:b1] < thr
         if glossy:
             diffuse[:] = True
-        traced += env_light.env_rays(frame.points, b0, keys, brdf.REFLECTION_ENV_DIM, frame.env, frame.env_dist,
-                                     scene.far, frame.target, acc, albedo, frame.metallic[b0:b1], diffuse)
+        traced += _env_sample(scene, frame, frame.points, b0, keys, 0, acc, albedo, frame.metallic[b0:b1], diffuse)
     for j in range(b1 - b0):
         for a in range(3):
             local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
