@@ -110,12 +110,11 @@ def _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmeta
         traced += t
         k = h.shape[0]
         hit_count[lv] = k
-        hit_l[lv, :k] = h
-        col[lv, :k] = col2
-        emis[lv, :k] = emis2
-        alb[lv, :k] = alb2
-        nrm[lv, :k] = N2
-        metal[lv, :k] = metal2
+        for i in range(k):  # loops, not arrays assigned to slices: their shape checks compile for seconds
+            hit_l[lv, i], metal[lv, i] = h[i], metal2[i]
+            for a in range(3):
+                col[lv, i, a], emis[lv, i, a] = col2[i, a], emis2[i, a]
+                alb[lv, i, a], nrm[lv, i, a] = alb2[i, a], N2[i, a]
         pP, pN, pNG, prough, pd, phits, pkeys = P2, N2, NG2, rough2, dd, h, keys2
     for lv in range(levels - 1, -1, -1):  # deepest first: blend with the level below, then into refl
         if lv + 1 < levels:
@@ -224,7 +223,9 @@ def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local):
     glossy ray brings the specular one; else the albedo, as the study); returns the rays traced."""
     albedo = frame.albedo[b0:b1]
     if not lit:
-        local[:] = albedo
+        for j in range(b1 - b0):  # a loop: an array assigned to a slice compiles its shape check for seconds
+            for a in range(3):
+                local[j, a] = albedo[j, a]
         return 0
     acc = brdf.accumulator(ggx, frame.view_dir, frame.pix[b0:b1], frame.roughness[b0:b1])
     traced = raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, acc)

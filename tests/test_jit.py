@@ -1,0 +1,124 @@
+"""rt/embree/jit.py: a kernel called from other kernels compiles once per plain signature, as code
+for them to link (rt/embree/inner_code.py), and every kernel gives the same results as Python and
+stays callable from Python; the kernel cache keeps both kinds across processes."""
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numba
+import numpy as np
+
+from rt.embree import inner_code
+from rt.embree.jit import inner_of, njit
+
+
+def _tree():
+    @njit(error_model="numpy")
+    def leaf(x, k):
+        return x * k + 1.0
+
+    @njit(error_model="numpy", fastmath=True)
+    def middle(a, k):
+        s = 0.0
+        for v in a:
+            s += leaf(v, k)
+        return s
+
+    @njit(error_model="numpy")
+    def top(a, flag):
+        return middle(a, 2) + middle(a, 3) + leaf(a[0], 0) + (1.0 if flag else 0.0)
+
+    return leaf, middle, top
+
+
+def test_results_as_in_python_and_every_kernel_callable_from_python():
+    leaf, middle, top = _tree()
+    a = np.arange(5.0)
+    expect = sum(v * 2 + 1 for v in a) + sum(v * 3 + 1 for v in a) + 1.0 + 1.0
+    assert top(a, True) == expect
+    assert middle(a, 2) == sum(v * 2 + 1 for v in a)  # its own compile, with Python's wrapper
+    assert leaf(4.0, 3) == 13.0
+    assert top(a, False) == expect - 1.0
+
+
+def test_a_callee_compiles_once_for_its_arguments_plain_types():
+    leaf, middle, top = _tree()
+    top(np.ones(3), True)  # leaf called with literals 2, 3 (through middle) and 0
+    assert [tuple(map(str, s)) for s in inner_of(leaf).overloads] == [("float64", "int64")]
+    assert len(inner_of(middle).overloads) == 1
+    assert not leaf.overloads and not middle.overloads  # Python has not called them
+    assert inner_of(top) is None
+
+
+def test_callees_are_linked_code_only():
+    if numba.version_info[:2] <= (0, 68):
+        assert inner_code.SUPPORTED  # the numba versions this was written against
+    if not inner_code.SUPPORTED:
+        return
+    leaf, middle, top = _tree()
+    top(np.ones(3), True)
+    for callee in (leaf, middle):
+        (cres,) = inner_of(callee).overloads.values()
+        assert isinstance(cres.library, inner_code.InnerLibrary)
+        # no machine code of its own: the JIT engine never saw it (its callers inlined it)
+        assert not cres.library.codegen._engine.is_symbol_defined(cres.fndesc.llvm_func_name)
+    (cres,) = top.overloads.values()
+    assert not isinstance(cres.library, inner_code.InnerLibrary)
+
+
+KERNELS = textwrap.dedent('''
+    import numpy as np
+    from rt.embree.jit import njit
+
+    @njit(cache=True, error_model="numpy")
+    def leaf(x, k):
+        return x * k + 1.0
+
+    @njit(cache=True, error_model="numpy")
+    def top(a):
+        s = 0.0
+        for v in a:
+            s += leaf(v, 2)
+        return s
+''')
+
+RUN = textwrap.dedent('''
+    import json, sys
+    import numpy as np
+    from numba.core import event
+    compiled = []
+
+    class Listen(event.Listener):
+        def on_start(self, ev):
+            compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Listen())
+    import probe_kernels
+    print(json.dumps({"value": probe_kernels.top(np.arange(4.0)), "compiled": compiled}))
+''')
+
+
+def test_the_kernel_cache_keeps_callers_and_their_linked_callees(tmp_path):
+    """A second process loads the kernel; one whose caller's entry is gone compiles the caller
+    alone, linking the callee's code from the cache (bitcode), with the same result."""
+    (tmp_path / "probe_kernels.py").write_text(KERNELS)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join([str(tmp_path), os.getcwd(), os.environ.get("PYTHONPATH", "")]))
+
+    def run():
+        r = subprocess.run([sys.executable, "-c", RUN], capture_output=True, text=True, env=env, timeout=300)
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout.strip().splitlines()[-1])
+
+    first = run()
+    assert first["value"] == 16.0 and {"top", "leaf__inner"} <= set(first["compiled"])
+    assert run() == {"value": 16.0, "compiled": []}
+    for f in (tmp_path / "cache").rglob("*top*"):
+        f.unlink()
+    third = run()
+    assert third["value"] == 16.0 and third["compiled"] == ["top"]
