@@ -3,14 +3,13 @@
 numba makes every compiled function ready to run on its own: its module is optimised whole and
 turned into machine code, although a kernel called only from other kernels never runs on its own
 (its callers link its code and optimise and generate their own). In a tree of kernels every level
-paid again for the levels below it: on a 2-core machine, a cold GI frame spent 37 s compiling, of
-which these callees' whole-module optimisation and machine code were about 10 s. InnerCompiler
+paid again for the levels below it (report/HISTORY.md, issue 44). InnerCompiler
 compiles a function into an InnerLibrary: optimised function by function (numba's own first step)
 and linked with its callees, so that a caller gets the same code to inline, and the top-level
 kernel, which Python calls, is optimised and made into machine code once, as before.
 
-This leans on numba's code-library internals (CPUCodeLibrary's linking and finalising, in numba
-0.58-0.68). SUPPORTED is False where they are not as expected; jit.py then compiles callees the
+This leans on numba's code-library internals (CPUCodeLibrary's linking and finalising; written
+against numba 0.68). SUPPORTED is False where they are not as expected; jit.py then compiles callees the
 ordinary way (correct, only slower to compile)."""
 from __future__ import annotations
 

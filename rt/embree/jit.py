@@ -12,8 +12,8 @@ kernel compiles (calls from Python compile as numba's always do):
   entries in the kernel cache, `<name>__inner`) compiles it without the wrappers that let Python
   call it (numba's no_cpython_wrapper, no_cfunc_wrapper: they unbox every array and record
   argument) and without optimising it as a whole module or making machine code of its own
-  (inner_code.py), which its callers do with its code inlined. A cold GI frame on a 2-core
-  machine compiled in 22 s instead of 37."""
+  (inner_code.py), which its callers do with its code inlined: a cold pass compiles in about 60 %
+  of the time (report/HISTORY.md, issue 44)."""
 from __future__ import annotations
 
 import types as pytypes
