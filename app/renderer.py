@@ -233,10 +233,13 @@ class Renderer:
             p.reset()
 
     def jittering(self, pass_name: str) -> bool:
-        """Whether this mode's accumulated frames sample jittered points of their pixels (not the
-        G-buffer's data views, whose values are not light)."""
+        """Whether this mode's frames sample jittered points of their pixels: where frames are
+        combined over time, by accumulation or by SVGF's temporal history (which otherwise sees
+        every pixel through the same point, and aliases edges that accumulation blends); not the
+        G-buffer's data views, whose values are not light."""
         opts = self.options
-        return bool(opts.get("jitter")) and bool(opts.get("accumulate")) and pass_name not in CHANNEL_VIEWS
+        temporal = bool(opts.get("accumulate")) or opts.get("denoise") == "svgf"
+        return bool(opts.get("jitter")) and temporal and pass_name not in CHANNEL_VIEWS
 
     def deterministic(self, pass_name: str) -> bool:
         """Whether another frame of unchanged inputs would look the same: the data views, and the

@@ -180,3 +180,24 @@ def test_bias_is_the_mean_brightness_in_linear_light():
     assert mean_bias(grey, grey) == 0.0
     bright = np.full((4, 4, 3), 255, np.uint8)  # sRGB 128 is 0.216 linear: 1.0 is 4.63 times it
     assert mean_bias(grey, bright) == pytest.approx(1.0 / 0.21586 - 1.0, rel=1e-3)
+
+
+def test_svgf_jitters_and_its_resolve_blends_edges_as_accumulation_does(gl):
+    """Above the upper plane (its top sees only sky: AO exactly 1) against a coloured sky: the
+    plane's far edge, which the accumulated jittered frames blend. SVGF's frames are jittered too,
+    and with svgf.resolve the filtered frames are averaged over time: after 16 frames its edge
+    pixels are within a third of the error of a filter that saw each pixel through one point
+    (jitter=false: each pixel sky or plane)."""
+    sky = ("env=0.2,0.4,0.6", "ao.rays_per_pixel=4")
+    cam = [Camera(np.array([0.0, 2.0, 0.0]), np.array([0.0, 1.9, -1.0]), np.array([0.0, 1.0, 0.0]), 60)]
+    size = (48, 32)
+    ref, _ = frames(gl, sky + ("accumulate=true",), cam * 64, size=size)
+    edge = (ref > 0.25) & (ref < 0.95)
+    assert edge.sum() >= 10
+    blended, _ = frames(gl, sky + ("denoise=svgf", "svgf.resolve=true"), cam * 16, size=size)
+    one_point, _ = frames(gl, sky + ("denoise=svgf", "jitter=false"), cam * 16, size=size)
+    err, err_one = np.abs(blended - ref)[edge].mean(), np.abs(one_point - ref)[edge].mean()
+    print(f"edge pixels {edge.sum()}: error {err_one:.4f} (one point a pixel) -> {err:.4f} (jittered, resolved)")
+    assert err < err_one / 3
+    inside = ~edge & (np.abs(ref - 0.2) < 1e-6)
+    assert np.array_equal(blended[inside], ref[inside])  # the sky away from the edge: untouched

@@ -9,7 +9,9 @@ frames it holds or, for a short history, the neighbours', svgf_variance.frag), t
 the reprojected history's (which this frame's noise has no part in: with the frame's own, the
 filter leaned towards each pixel's noise, 1-ray AO 3.8 % dark) (svgf_atrous.frag), so that the
 filter narrows as the average converges; the last multiplies the albedo back. The next frame
-reprojects the temporal average (with `feedback`, the first iteration's output, as the paper)."""
+reprojects the temporal average (with `feedback`, the first iteration's output, as the paper).
+With `resolve`, the filtered frames are averaged over time in turn (svgf_resolve.frag), so that
+edges, which one jittered G-buffer sample a pixel aliases, blend as in accumulation."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -35,6 +37,9 @@ class SvgfOptions:
                            1000.0)
     phi_normal: float = opt(128.0, "normal edge-stopping exponent", 1.0, 1024.0)
     phi_depth: float = opt(1.0, "depth edge-stopping, in 1 % of the depth per a-trous step", 0.01, 100.0)
+    resolve: bool = opt(True, "average the filtered frames over time (reprojected, clamped where the camera moved), "
+                        "as raw accumulation averages jittered frames: edges stop aliasing")
+    resolve_alpha: float = opt(0.1, "weight of the new frame in that average (at least)", 0.01, 1.0)
 
 
 register_group("svgf", SvgfOptions)
@@ -58,22 +63,24 @@ class SvgfPass(Pass):
         self.ping = Targets(ctx, {"c": (4, "f4")})
         self.pong = Targets(ctx, {"c": (4, "f4")})
         self.out = Targets(ctx, {"c": (4, "f4")})
+        self.resolved = [Targets(ctx, {"c": (4, "f4")}), Targets(ctx, {"c": (4, "f4")})]  # this frame's, the last
         self.valid = False
+        self.resolved_valid = False
         self.inputs = None  # what the history was made under: mode, options and scene
 
     def set_scene(self, scene) -> None:
-        self.valid = False
+        self.valid = self.resolved_valid = False
 
     def reset(self) -> None:
-        self.valid = False
+        self.valid = self.resolved_valid = False
 
     def execute(self, frame) -> None:
         opts = frame.options.group("svgf")
         w, h = frame.width, frame.height
         inputs = (frame.mode, frame.options.state(), id(frame.scene))
         if self.history.size != (w, h) or inputs != self.inputs:  # another image: no history to reuse
-            self.valid, self.inputs = False, inputs
-        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out):
+            self.valid, self.resolved_valid, self.inputs = False, False, inputs
+        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
             t.ensure(w, h)
         with frame.profiler.gpu(self.ctx, "svgf"):
             prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
@@ -104,8 +111,17 @@ class SvgfPass(Pass):
                         first = self.temporal["color"]
                     self._draw(self.history, keep, kvao, frame, ("g_position", "g_normal", "g_face"), {
                         "filtered": first, "color": self.temporal["color"], "moments": self.temporal["moments"]})
+            result = self.out
+            if opts.resolve:
+                result, last = self.resolved
+                prog, vao = fullscreen(self.ctx, "svgf_resolve.frag")
+                self._draw(result, prog, vao, frame, ("g_motion",), {"current": self.out["c"],
+                                                                     "previous": last["c"]},
+                           has_history=int(self.resolved_valid), alpha=float(opts.resolve_alpha))
+                self.resolved.reverse()
+            self.resolved_valid = bool(opts.resolve)
         self.valid = True
-        frame.channels["radiance"] = self.out["c"]
+        frame.channels["radiance"] = result["c"]
 
     def _draw(self, target, prog, vao, frame, channels, textures: dict, **uniforms) -> None:
         target.fbo.use()
@@ -119,5 +135,5 @@ class SvgfPass(Pass):
         vao.render(vertices=3)
 
     def release(self) -> None:
-        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out):
+        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
             t.release()
