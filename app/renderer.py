@@ -9,7 +9,7 @@ import numpy as np
 
 from app.camera import Camera, subpixel_jitter
 from app.frame import Frame
-from app.graph import active
+from app.graph import active, denoises
 from app.options import Options
 from app.passes import check_pass, create_passes
 from app.profiler import Profiler
@@ -238,7 +238,7 @@ class Renderer:
         every pixel through the same point, and aliases edges that accumulation blends); not the
         G-buffer's data views, whose values are not light."""
         opts = self.options
-        temporal = bool(opts.get("accumulate")) or opts.get("denoise") == "svgf"
+        temporal = bool(opts.get("accumulate")) or (opts.get("denoise") == "svgf" and denoises(pass_name))
         return bool(opts.get("jitter")) and temporal and pass_name not in CHANNEL_VIEWS
 
     def deterministic(self, pass_name: str) -> bool:

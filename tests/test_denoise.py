@@ -201,3 +201,23 @@ def test_svgf_jitters_and_its_resolve_blends_edges_as_accumulation_does(gl):
     assert err < err_one / 3
     inside = ~edge & (np.abs(ref - 0.2) < 1e-6)
     assert np.array_equal(blended[inside], ref[inside])  # the sky away from the edge: untouched
+
+
+def test_frames_jitter_where_svgf_runs_or_frames_accumulate():
+    """Without accumulation, frames jitter only where SVGF combines them (its passes; not forward
+    or hybrid, whose unaccumulated frames would shimmer), and never with jitter=false."""
+    from types import SimpleNamespace
+
+    from app.options import Options
+    from app.renderer import Renderer
+
+    def jitters(sets, mode):
+        opts = Options()
+        opts.apply(sets)
+        return Renderer.jittering(SimpleNamespace(options=opts), mode)
+
+    svgf = ["denoise=svgf", "accumulate=false"]
+    assert jitters(svgf, "gi") and jitters(svgf, "ao") and jitters(svgf, "reference")
+    assert not jitters(svgf, "forward") and not jitters(svgf, "hybrid") and not jitters(svgf, "normal")
+    assert not jitters(["denoise=oidn", "accumulate=false"], "gi") and not jitters(svgf + ["jitter=false"], "gi")
+    assert jitters(["accumulate=true"], "forward")
