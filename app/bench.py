@@ -414,6 +414,8 @@ def measure_denoisers(renderer, camera, size, scene_name, rows, configs, converg
 
 PATH_CONFIG = "gi_1"  # the configuration flown along the camera path, accumulated
 PATH_CHECKS = 4  # frames of the path compared with their converged image (the last one among them)
+PATH_VARIANTS = {"restart": ["accumulate=true", "reproject=false"], "reproject": ["accumulate=true", "reproject=true"],
+                 "svgf": ["accumulate=false", "denoise=svgf"]}
 
 
 def path_cameras(camera: Camera, diagonal: float, frames: int) -> list[Camera]:
@@ -430,8 +432,9 @@ def path_cameras(camera: Camera, diagonal: float, frames: int) -> list[Camera]:
 
 
 def measure_path(renderer, camera, size, diagonal, frames, converged_frames, base: tuple = ()) -> dict:
-    """PATH_CONFIG accumulated along a scripted camera path (path_cameras), with reproject on
-    and off (the study's restart on motion): at PATH_CHECKS frames of the path, mean FLIP
+    """PATH_CONFIG along a scripted camera path (path_cameras): accumulated with reproject on
+    and off (the study's restart on motion), and denoised by SVGF (its history reprojected and
+    clamped: what it lags or ghosts shows here); at PATH_CHECKS frames of the path, mean FLIP
     against that camera's converged image (converged_frames still frames); and the flicker, the
     mean change of a point's displayed luminance from one frame to the next (where the raster
     G-buffer sees the same surface at the reprojected pixel), over the whole path."""
@@ -443,9 +446,9 @@ def measure_path(renderer, camera, size, diagonal, frames, converged_frames, bas
     converged = {k: render_image(renderer, cams[k], size, pass_name, sets, converged_frames, seed=1, base=base)
                  for k in checks}
     result = {"config": PATH_CONFIG, "frames": frames, "checked_frames": checks, "converged_frames": converged_frames}
-    for reproject in (False, True):
+    for key, extra in PATH_VARIANTS.items():
         opts = Options()
-        opts.apply(list(base) + sets + ["accumulate=true", f"reproject={'true' if reproject else 'false'}"])
+        opts.apply(list(base) + sets + extra)
         renderer.options, renderer.seed = opts, 0
         renderer.reset()
         flips, changes, prev = [], [], None
@@ -458,7 +461,7 @@ def measure_path(renderer, camera, size, diagonal, frames, converged_frames, bas
             prev = (shown, surface)
             if k in converged:
                 flips.append(mean_flip(converged[k], renderer.read_display()))
-        result["reproject" if reproject else "restart"] = {
+        result[key] = {
             "flip_mean": float(np.mean(flips)), "flips": flips,
             "flicker": float(np.mean(changes)) if changes else None}
     return result

@@ -112,9 +112,9 @@ def path_rows(doc: dict) -> list[list[str]]:
     for name, info in doc.get("scenes", {}).items():
         p = info.get("path")
         if p:
-            a, b = p["restart"], p["reproject"]
+            a, b, c = p["restart"], p["reproject"], p.get("svgf", {})  # results before SVGF's flight lack it
             rows.append([name, f"{p['config']} ×{p['frames']}", fmt(a["flip_mean"]), fmt(b["flip_mean"]),
-                         fmt(a["flicker"]), fmt(b["flicker"])])
+                         fmt(c.get("flip_mean")), fmt(a["flicker"]), fmt(b["flicker"]), fmt(c.get("flicker"))])
     return rows
 
 
@@ -289,9 +289,11 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     prows = path_rows(doc)
     if prows:
         first = next(i["path"] for i in doc["scenes"].values() if i.get("path"))
-        ph = ["scene", "path", "FLIP restart", "FLIP reproject", "flicker restart", "flicker reproject"]
-        md += ["## Camera path", "", f"A dolly through the scene ({first['frames']} frames, accumulating), as the "
-               "study measured (the mean restarts on motion) and with `reproject=true`: mean FLIP of frames "
+        ph = ["scene", "path", "FLIP restart", "FLIP reproject", "FLIP svgf", "flicker restart", "flicker reproject",
+              "flicker svgf"]
+        md += ["## Camera path", "", f"A dolly through the scene ({first['frames']} frames), accumulating as the "
+               "study measured (the mean restarts on motion), with `reproject=true`, and denoised by SVGF (its "
+               "history reprojected: lag and ghosts count here): mean FLIP of frames "
                f"{', '.join(str(k + 1) for k in first['checked_frames'])} against their camera's converged image "
                f"({first['converged_frames']} frames), and the flicker, the mean change of a point's displayed "
                "luminance from one frame to the next.", ""] + _table(ph, prows) + [""]

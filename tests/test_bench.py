@@ -171,3 +171,16 @@ def test_load_bench_measures_a_generated_big_scene(tmp_path):
 
     scene = load_scene(str(tmp_path / "load_scene_200000_20" / "scene.gltf"))
     assert sum(m.texture is not None for m in scene.materials) == 20
+
+
+def test_the_camera_path_is_flown_accumulated_and_denoised(quick_bench):
+    """bench.measure_path: the dolly accumulated (restarting, reprojected) and denoised by SVGF,
+    each with its FLIP at the checked frames and its flicker; the report's table has all three."""
+    doc = json.loads((quick_bench / "results.json").read_text())
+    for scene in ("arcade", "cafe"):
+        p = doc["scenes"][scene]["path"]
+        assert p["frames"] == 8 and len(p["checked_frames"]) >= 2
+        for key in ("restart", "reproject", "svgf"):
+            assert len(p[key]["flips"]) == len(p["checked_frames"]) and 0 < p[key]["flip_mean"] < 1, key
+            assert p[key]["flicker"] is not None and p[key]["flicker"] >= 0, key
+    assert "FLIP svgf" in (quick_bench / "report.md").read_text()
