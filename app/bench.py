@@ -412,7 +412,7 @@ def measure_denoisers(renderer, camera, size, scene_name, rows, configs, converg
                                f"frame {d['flip_raw_1']:.4f}, {DENOISE_FRAMES} frames {d[f'flip_raw_{DENOISE_FRAMES}']:.4f})")
 
 
-PATH_CONFIG = "gi_1"  # the configuration flown along the camera path, accumulated
+PATH_CONFIG = "gi_1"  # the configuration flown along the camera path (PATH_VARIANTS: accumulated, denoised)
 PATH_CHECKS = 4  # frames of the path compared with their converged image (the last one among them)
 PATH_VARIANTS = {"restart": ["accumulate=true", "reproject=false"], "reproject": ["accumulate=true", "reproject=true"],
                  "svgf": ["accumulate=false", "denoise=svgf"]}
