@@ -493,7 +493,9 @@ def soak(frames: int, every: int, bound: float, settle_floor: bool = False):
     half of the run against the highest of the first. A leak raises the peaks as it goes; the
     allocator's high-water mark, reached once, does not. The first few thousand frames still
     climb to it (each scene, size and pass met for the first time), so the short soak that CI
-    runs bounds growth loosely, the long one (10,000 frames) tightly."""
+    runs bounds growth loosely, the long one (10,000 frames) tightly. settle_floor (the short
+    soak): also the floor of memory once collected (each sample's garbage collected and freed
+    memory given back), and the lesser of the two growths is judged."""
     from app.fly_camera import FlyInput
     from app.viewer import Viewer
 
@@ -525,14 +527,14 @@ def soak(frames: int, every: int, bound: float, settle_floor: bool = False):
             if i % every == every - 1:
                 v.wait_for_frame()
                 samples.append(_rss_mb())
-                settled.append(_settled_rss_mb())
+                if settle_floor:  # collected after the peak's sample (the long soak's peaks stay untouched)
+                    settled.append(_settled_rss_mb())
         half = len(samples) // 2
         grown = max(samples[half:]) - max(samples[:half])
-        trend = float(np.median(settled[half:]) - np.median(settled[:half]))
-        floor = min(settled[half:]) - min(settled[:half])
+        floor = min(settled[half:]) - min(settled[:half]) if settle_floor else None
         print(f"soak: {frames} frames, peak memory {max(samples[:half]):.1f} MB in the first half, "
-              f"{max(samples[half:]):.1f} MB in the second ({grown:+.1f} MB); samples from {min(samples):.1f} MB; "
-              f"settled {trend:+.1f} MB, floor {floor:+.1f} MB")
+              f"{max(samples[half:]):.1f} MB in the second ({grown:+.1f} MB); samples from {min(samples):.1f} MB"
+              + (f"; collected floor {floor:+.1f} MB" if settle_floor else ""))
         # the short soak takes the lesser of the peaks' growth and the floor's once collected: on a
         # loaded 2-core machine either moves by tens of MB with what is live when it is sampled
         # (peaks +28..+76 MB over 300 frames, floor up to +46, the same before and after a change),
