@@ -55,6 +55,29 @@ def closed_box(albedo=0.5):
     return b.build()
 
 
+def closed_box_ggx():
+    """closed_box's room (same walls, light and view) in glTF's metal-rough materials, for GI
+    under brdf=ggx: rough dielectric walls (the left one red), a gold GGX metal box (roughness
+    0.3) and a glossy white dielectric box (roughness 0.35) on the floor."""
+    b = SceneBuilder("box_ggx")
+    b.material("wall", (0.5, 0.5, 0.5), roughness=0.6)
+    b.material("red", (0.8, 0.1, 0.1), roughness=0.5)
+    b.material("gold", (1.0, 0.78, 0.34), roughness=0.3, metallic=1.0)
+    b.material("glossy", (0.8, 0.8, 0.8), roughness=0.35)
+    W, H, D = 4.0, 3.0, 4.0
+    b.add(grid(2, 2), "wall", trs((0, 0, 0), 0, (W, 1, D)))
+    b.add(grid(2, 2), "wall", trs((0, H, 0), 0, (W, 1, D), rotate_x=np.pi))
+    b.add(grid(2, 2), "red", trs((-W / 2, H / 2, 0), np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((W / 2, H / 2, 0), -np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((0, H / 2, -D / 2), 0.0, (W, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((0, H / 2, D / 2), np.pi, (W, 1, H), rotate_x=np.pi / 2))
+    b.box("gold", (0.2, 0.0, -1.2), (1.2, 1.0, -0.2))
+    b.box("glossy", (-1.3, 0.0, -1.4), (-0.5, 0.6, -0.6))
+    b.light(kind="point", position=(0.0, 2.5, 0.5), intensity=8.0)
+    b.view("room", (0.0, 1.5, 1.9), (0.0, 1.0, -2.0), 70)
+    return b.build()
+
+
 def mirror_floor(roughness=0.05):
     """A metallic mirror floor in front of a red emissive wall, camera looking down at the floor."""
     b = SceneBuilder("mirror")

@@ -65,6 +65,7 @@ def test_ao_between_parallel_planes_on_vulkan(gl, vulkan):
     ("shadows", "street", ("shadows.lights=one", "shadows.greyscale=true")), ("shadows", "cafe", ()),
     ("gi", "arcade", ()), ("gi", "cafe", ("gi.bounces=2",)),
     ("gi", "street", ("gi.shadows=false", "gi.rays_per_pixel=2")),
+    ("gi", "arcade", ("brdf=ggx",)), ("gi", "temple", ("brdf=ggx", "gi.bounces=2", "env=sky")),
     ("reflections", "temple", ("reflections.max_depth=3",)), ("reflections", "street", ("reflections.lit=false",)),
     ("reference", "cafe", ()), ("reference", "temple", ("reference.max_bounces=3", "reference.rr_start=1")),
     ("normal", "temple", ()), ("depth", "street", ()), ("albedo", "temple", ()),

@@ -83,14 +83,6 @@ def f0(base, metallic):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def diffuse_weight(base, metallic):
-    """What light arriving from every side (cosine-weighted) is multiplied by to leave
-    diffusely, x pi: c_diff (1 - F0) (the Fresnel weight of the sample's own half vector is
-    left out: GI's bounces, the passes' approximation; the reference path tracer has it)."""
-    return base * (ONE - metallic) * (ONE - f0(base, metallic))
-
-
-@njit(cache=True, error_model="numpy", fastmath=True)
 def outgoing(acc, i, a, base, metallic):
     """The direct radiance, channel a, that accumulator row acc[i] (GGX_COLS columns) gives a
     material of base colour `base` (that channel) and `metallic`."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from rt.embree import brdf
-from rt.embree.brdf import GGX_COLS, ONE, ZERO, diffuse_weight, light_out
+from rt.embree.brdf import ONE, ZERO, light_out
 from rt.embree.jit import njit
 from rt.embree.kernels import environment_rgb, environment_terms, uniform
 from rt.embree.raygen import offset_origin
@@ -40,18 +40,13 @@ def gather_keys(keys, owner, sel, k, out):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def add_bounce(out, owner, sel, k, albedo, metallic, direct, inner):
+def add_bounce(out, owner, sel, k, albedo, metallic, direct):
     """out[owner[sel[i]]] += the light leaving bounce hit i: its direct light's radiance
-    (brdf.light_out; direct: its accumulator) + inner[i] x the albedo (GGX: brdf.diffuse_weight),
-    inner: what arrives there from further bounces, or None."""
-    ggx = direct.shape[1] >= GGX_COLS
+    (brdf.light_out; direct: its accumulator)."""
     for i in range(k):
         p = owner[sel[i]]
         for a in range(3):
-            light = light_out(direct, i, a, albedo[i, a], metallic[i])
-            if inner is not None:
-                light += inner[i, a] * (diffuse_weight(albedo[i, a], metallic[i]) if ggx else albedo[i, a])
-            out[p, a] += light
+            out[p, a] += light_out(direct, i, a, albedo[i, a], metallic[i])
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -97,20 +92,28 @@ def put_rows(image, pix, values):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def write_lit(out, pix, emissive, albedo, metallic, direct, extra, grey):
+def write_lit(out, pix, emissive, albedo, metallic, direct, grey):
     """out[pix[j]] = emissive + the direct light's radiance (brdf.light_out; direct: the light
-    accumulator) + extra x the albedo (GGX: brdf.diffuse_weight), extra: incoming indirect
-    radiance, or None; grey: a white dielectric, no emission."""
-    ggx = direct.shape[1] >= GGX_COLS
+    accumulator); grey: a white dielectric, no emission."""
     for j in range(pix.shape[0]):
         p = pix[j]
         m = ZERO if grey else metallic[j]
         for a in range(3):
-            base = ONE if grey else albedo[j, a]
-            light = light_out(direct, j, a, base, m)
-            if extra is not None:
-                light += extra[j, a] * (diffuse_weight(base, m) if ggx else base)
+            light = light_out(direct, j, a, ONE if grey else albedo[j, a], m)
             out[p, a] = light if grey else emissive[j, a] + light
+
+
+@njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
+def write_gi(out, pix, emissive, albedo, metallic, direct, indirect, outgoing, ggx):
+    """The GI pass's out[pix[j]] = emissive + the direct light's radiance (brdf.light_out) + the
+    indirect light leaving: with glTF's BRDF (ggx) outgoing[j], what the BRDF-sampled bounces
+    (bounce.py) brought, else indirect[j] (incoming) x the albedo."""
+    for j in range(pix.shape[0]):
+        p = pix[j]
+        for a in range(3):
+            light = light_out(direct, j, a, albedo[j, a], metallic[j])
+            light += outgoing[j, a] if ggx else indirect[j, a] * albedo[j, a]
+            out[p, a] = emissive[j, a] + light
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)

@@ -1,7 +1,8 @@
 """Ray-traced global illumination: direct light at the primary hit (shadowed or not, the
-study's two modes) plus `rays_per_pixel` cosine-weighted bounce rays, each shaded at its hit
-with one light sample and one sample of the environment (env_light.py), each with its shadow
-ray; `bounces` > 1 continues the path.
+study's two modes) plus `rays_per_pixel` bounce rays, each shaded at its hit with one light
+sample and one sample of the environment (env_light.py), each with its shadow ray; `bounces`
+> 1 continues the path. The bounce rays are cosine-weighted (the study's Lambert surfaces), or
+with glTF's BRDF drawn from it, specular lobe included (bounce.py).
 
 Light from emitters reaches bounce hits through their light samples (emissive triangles are
 lights), so a bounce ray that happens to hit an emitter does not add its emission again; the
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from rt.effects import STREAM
-from rt.embree import brdf, env_light, gather, raygen
+from rt.embree import bounce, brdf, env_light, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
@@ -45,26 +46,31 @@ def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
         traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
                                     lit, direct)
         indirect = np.zeros((nb, 3), np.float32)
+        outgoing = np.zeros((nb, 3), np.float32)
         for r in range(rays):
-            traced += _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect)
+            traced += _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoing)
         indirect /= np.float32(rays)
-        gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1],
-                         frame.metallic[b0:b1], direct, indirect, False)
+        outgoing /= np.float32(rays)
+        gather.write_gi(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1], frame.metallic[b0:b1],
+                        direct, indirect, outgoing, ggx)
         gather.put_rows(frame.aux, pix[b0:b1], indirect)
         gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
     return traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect):
+def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoing):
     """Path r of every point of the block starting at b0 (keys: theirs): per bounce a
-    cosine-weighted ray, its closest hit (the environment where it misses), the hit shaded and
-    lit by its own light sample (lit: the shadow rays' target), and from the hit the next
-    bounce's ray; each bounce's light, times the albedos of the path's earlier hits (ggx:
-    brdf.diffuse_weight), is added into indirect (one row per point). Random dimensions: 6 per
-    bounce from 4 + 6 x (bounces x r), and 3 a bounce for the hits' environment samples from
-    4 + 6 x bounces x rays + 3 x (bounces x r).
-    Returns the rays traced."""
+    cosine-weighted ray (ggx: one from the point's BRDF, bounce.py), its closest hit (the
+    environment where it misses), the hit shaded and lit by its own light sample (lit: the
+    shadow rays' target), and from the hit the next bounce's ray. Each bounce's light, times
+    the albedos of the path's earlier hits, is added into indirect (one row per point: the
+    incoming indirect light); with ggx, times the BRDF weights of the path's points, into
+    outgoing (the indirect light leaving), and into indirect with the primary point's
+    cosine-lobe weight in place of its BRDF's. Random dimensions: 6 per bounce from 4 + 6 x
+    (bounces x r), 3 a bounce for the hits' environment samples from 4 + 6 x bounces x rays +
+    3 x (bounces x r), and with ggx 1 a bounce for the lobe from 4 + 9 x bounces x rays +
+    bounces x r. Returns the rays traced."""
     nb = keys.shape[0]
     env_kind, env_color, horizon, zenith, ground, texels = frame.env
     (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
@@ -86,13 +92,26 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect):
     thr_a, thr_b = np.ones((nb, 3), np.float32), np.empty((nb, 3), np.float32)
     # where a bounce's light goes: with one bounce straight into the block's rows, else per point,
     # then times the path's throughput into its row
-    into = indirect if bounces == 1 else level_light
+    into = indirect if bounces == 1 and not ggx else level_light
+    # with ggx: the points' view directions and materials, their rays' weights (bounce.brdf_live)
+    # and the paths' weights so far for outgoing (thr_a) and for indirect (thi_a)
+    V, W = np.empty((nb, 3), np.float32), np.empty((nb, 4), np.float32)
+    thi_a, thi_b = np.ones((nb, 3), np.float32), np.empty((nb, 3), np.float32)
+    m_alb, m_metal, m_rough = frame.albedo[b0:b0 + nb], frame.metallic[b0:b0 + nb], frame.roughness[b0:b0 + nb]
+    if ggx:
+        for i in range(nb):
+            q = frame.pix[b0 + i]
+            V[i, 0], V[i, 1], V[i, 2] = -frame.view_dir[q, 0], -frame.view_dir[q, 1], -frame.view_dir[q, 2]
     traced = 0
     for level in range(bounces):
         dim = 4 + 6 * (bounces * r + level)
-        # ---- a cosine-weighted ray from each point, and its closest hit ----
-        m = raygen.hemisphere_live(G, g0, keys_a[:npts], dim, scene.far, o, d, t, owner,
-                                   embree.no_trace(frame.target), raygen.NOT_TRACED)
+        # ---- a ray from each point (cosine-weighted, or from its BRDF), and its closest hit ----
+        if ggx:
+            m = bounce.brdf_live(G, g0, keys_a[:npts], dim, 4 + 9 * bounces * rays + bounces * r + level, V, m_alb,
+                                 m_metal, m_rough, scene.far, o, d, t, owner, embree.no_trace(frame.target), W)
+        else:
+            m = raygen.hemisphere_live(G, g0, keys_a[:npts], dim, scene.far, o, d, t, owner,
+                                       embree.no_trace(frame.target), raygen.NOT_TRACED)
         embree.trace_intersect(frame.target, o[:m], d[:m], tmax[:m], th, prim, u, v)
         level_light[:npts] = 0.0
         k = gather.split_hits(prim, m, d, owner, into, env_kind if level == 0 else 0, env_color, horizon, zenith,
@@ -111,23 +130,50 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect):
         env_dim = 4 + 6 * bounces * rays + 3 * (bounces * r + level)
         traced += env_light.env_shadow_rays(hit_points, 0, keys_b[:k], env_dim, frame.env, frame.env_dist,
                                             scene.far, lit, hit_direct, alb[:k], metal[:k])
-        gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct, None)
+        gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct)
+        if ggx:  # ---- this bounce's light, weighted, into its paths' rows ----
+            _weigh(level_light, W, level, row_a, thr_a, thi_a, npts, indirect, outgoing)
         if bounces == 1:
             break
         # ---- this bounce's light into its paths' rows; the hits start the next bounce ----
-        for i in range(npts):
-            for a in range(3):
-                indirect[row_a[i], a] += thr_a[i, a] * level_light[i, a]
+        if not ggx:
+            for i in range(npts):
+                for a in range(3):
+                    indirect[row_a[i], a] += thr_a[i, a] * level_light[i, a]
         for i in range(k):
             q = owner[hits[i]]
             row_b[i] = row_a[q]
             for a in range(3):
-                thr_b[i, a] = thr_a[q, a] * (brdf.diffuse_weight(alb[i, a], metal[i]) if ggx else alb[i, a])
+                if ggx:
+                    thr_b[i, a] = thr_a[q, a] * W[q, a]
+                    thi_b[i, a] = thi_a[q, a] * (W[q, 3] if level == 0 else W[q, a])
+                else:
+                    thr_b[i, a] = thr_a[q, a] * alb[i, a]
+        if ggx:
+            for i in range(k):
+                j = hits[i]
+                V[i, 0], V[i, 1], V[i, 2] = -d[j, 0], -d[j, 1], -d[j, 2]
+            m_alb, m_metal, m_rough = alb[:k], metal[:k], rough[:k]
         G, g0, npts = hit_points, 0, k
         keys_a, keys_b = keys_b, keys_a
         row_a, row_b = row_b, row_a
         thr_a, thr_b = thr_b, thr_a
+        thi_a, thi_b = thi_b, thi_a
     return traced
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _weigh(level_light, W, level, row, thr, thi, npts, indirect, outgoing):
+    """With glTF's BRDF: the light that each point's ray brought (level_light), times its
+    weights W (bounce.brdf_live) and its path's so far, into its path's row of outgoing (thr:
+    the BRDF's weights) and of indirect (thi; the primary point's ray by its cosine-lobe
+    weight W[:, 3])."""
+    for i in range(npts):
+        p = row[i]
+        for a in range(3):
+            light = level_light[i, a]
+            outgoing[p, a] += thr[i, a] * W[i, a] * light
+            indirect[p, a] += thi[i, a] * (W[i, 3] if level == 0 else W[i, a]) * light
 
 
 def trace(rf) -> dict:

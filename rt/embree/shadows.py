@@ -61,7 +61,7 @@ def _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx):
     metal = np.zeros_like(metallic) if grey else metallic
     traced = env_light.env_shadow_rays(frame.points, b0, keys, env_light.env_dim(scene.lights[3]), frame.env,
                                        frame.env_dist, scene.far, frame.target, irradiance, base, metal)
-    gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, None, grey)
+    gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, grey)
     gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
     return traced
 

@@ -1,12 +1,14 @@
-"""Renders the Mitsuba 3 references that tests/test_brdf.py compares rtlab with (run by hand:
-`python tests/refs/make_mitsuba_refs.py`; needs `pip install mitsuba`, scalar_rgb: no GPU).
+"""Renders the Mitsuba 3 references that tests/test_brdf.py and tests/test_convergence.py compare
+rtlab with (run by hand: `python tests/refs/make_mitsuba_refs.py [CASE ...]`; needs `pip install
+mitsuba` (3.7 or later) and libLLVM for its llvm_ad_rgb variant: no GPU).
 
 The scenes: tests/gltf_writer.ggx_spheres_document(): white metal spheres (glTF's Schlick F0 =
 1, so F = 1 at every angle, as Mitsuba's roughconductor with material "none"), GGX with alpha =
 roughness^2 and Smith's separable G in both, under one point light; ggx_grid_document() (glTF's
 BRDF as a plugin, below); tests/scenes_for_tests.closed_box(), a closed Lambert room with a box in
 it under one point light (Mitsuba's diffuse BSDF), for the convergence tests of
-tests/test_convergence.py. rtlab's own loader or builder makes the geometry, the light and the
+tests/test_convergence.py, and closed_box_ggx(), the same room in glTF's materials (a metal
+and a glossy box: GI under brdf=ggx). rtlab's own loader or builder makes the geometry, the light and the
 camera; Mitsuba does all the shading (ggx_spheres_map: under an environment map, Mitsuba's
 envmap, which reads equirectangular maps as rtlab does). Each image is written as float16 (H, W, 3) linear
 radiance, with a box pixel filter (what rtlab's jittered frames accumulate to).
@@ -20,9 +22,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
+VARIANT = "llvm_ad_rgb"  # vectorised on the CPU (Mitsuba's LLVM backend: needs libLLVM); scalar_rgb works too, slowly
 sys.path.insert(0, str(ROOT))
 
-SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48)}  # width, height
+SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48), "box_ggx": (64, 48)}  # width, height
 CASES = {
     # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, BSDF: conductor, gltf or diffuse)
     "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, "conductor"),  # the point light alone: direct light
@@ -33,6 +36,7 @@ CASES = {
     "ggx_grid_env": ("grid", 0.5, 3, 1024, "gltf"),  # 2 bounces (reference.max_bounces=2)
     "box_direct": ("box", 0.0, 2, 4096, "diffuse"),  # direct light
     "box_gi": ("box", 0.0, 3, 16384, "diffuse"),  # direct light and one bounce (gi.bounces=1)
+    "box_ggx_gi": ("box_ggx", 0.0, 3, 65536, "gltf"),  # glTF's BRDF: a metal and glossy boxes, one bounce
 }
 
 
@@ -40,7 +44,8 @@ def gltf_bsdf_class():
     """glTF's metal-rough BRDF as a Mitsuba BSDF plugin written here (the spec's formulas, with
     Mitsuba's own GGX distribution and separable Smith G): Lambert c_diff (1 - F) / pi + F D G /
     (4 n.v n.l), F Schlick's with F0 = mix(0.04, base, metallic), alpha = roughness^2. Sampled
-    as a mixture of the cosine lobe and Mitsuba's visible-normal sampling of D."""
+    as a mixture of the cosine lobe and Mitsuba's visible-normal sampling of D. Written with
+    masks (dr.select), so that it runs in the vectorised variants (llvm_ad_rgb) as in scalar_rgb."""
     import drjit as dr
     import mitsuba as mi
 
@@ -54,52 +59,43 @@ def gltf_bsdf_class():
             self.m_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
             self.m_components = [self.m_flags]
 
-        def _f0(self):
-            return 0.04 * (1.0 - self.metallic) + self.base * self.metallic
+        def _fresnel(self, c):
+            f0 = 0.04 * (1.0 - self.metallic) + self.base * self.metallic
+            return f0 + (1.0 - f0) * dr.power(1.0 - dr.clip(c, 0.0, 1.0), 5)
 
         def _p_spec(self, cos_v):
-            f = self._f0() + (1.0 - self._f0()) * (1.0 - cos_v) ** 5
+            f = self._fresnel(cos_v)
             spec = mi.luminance(f)
             diff = mi.luminance(self.base * (1.0 - self.metallic) * (1.0 - f))
-            return 1.0 if spec + diff <= 0 else spec / (spec + diff)
+            return dr.select(spec + diff > 0, spec / dr.maximum(spec + diff, 1e-12), 1.0)
 
         def _eval(self, wi, wo):
-            if wi.z <= 0 or wo.z <= 0:
-                return mi.Color3f(0.0)
-            h = mi.Vector3f(wi + wo)
-            h = h / mi.Float(dr.norm(h))
-            vh = max(min(dr.dot(wi, h), 1.0), 0.0)
-            f = self._f0() + (1.0 - self._f0()) * (1.0 - vh) ** 5
-            spec = f * (self.distr.eval(h) * self.distr.G(wi, wo, h) / (4.0 * wi.z * wo.z))
+            valid = (wi.z > 0) & (wo.z > 0)
+            h = dr.normalize(wi + wo)
+            f = self._fresnel(dr.dot(wi, h))
+            spec = f * (self.distr.eval(h) * self.distr.G(wi, wo, h) / dr.maximum(4.0 * wi.z * wo.z, 1e-12))
             diff = self.base * (1.0 - self.metallic) * (1.0 - f) / dr.pi
-            return (diff + spec) * wo.z
+            return dr.select(valid, (diff + spec) * wo.z, 0.0)
 
         def _pdf(self, wi, wo):
-            if wi.z <= 0 or wo.z <= 0:
-                return 0.0
-            h = mi.Vector3f(wi + wo)
-            h = h / mi.Float(dr.norm(h))
+            valid = (wi.z > 0) & (wo.z > 0)
+            h = dr.normalize(wi + wo)
             p = self._p_spec(wi.z)
-            spec = self.distr.pdf(wi, h) / (4.0 * abs(dr.dot(wo, h)))
-            return p * spec + (1.0 - p) * wo.z / dr.pi
+            spec = self.distr.pdf(wi, h) / dr.maximum(4.0 * dr.abs(dr.dot(wo, h)), 1e-12)
+            return dr.select(valid, p * spec + (1.0 - p) * wo.z / dr.pi, 0.0)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             wi = si.wi
+            spec_lobe = sample1 < self._p_spec(wi.z)
+            m, _ = self.distr.sample(wi, sample2)
+            wo = dr.select(spec_lobe, mi.reflect(wi, m), mi.warp.square_to_cosine_hemisphere(sample2))
             bs = mi.BSDFSample3f()
-            if wi.z <= 0:
-                return bs, mi.Color3f(0.0)
-            if sample1 < self._p_spec(wi.z):
-                m, _ = self.distr.sample(wi, sample2)
-                wo = 2.0 * dr.dot(wi, m) * m - wi
-                bs.sampled_type = int(mi.BSDFFlags.GlossyReflection)
-            else:
-                wo = mi.warp.square_to_cosine_hemisphere(sample2)
-                bs.sampled_type = int(mi.BSDFFlags.DiffuseReflection)
             bs.wo, bs.eta, bs.sampled_component = wo, 1.0, 0
+            bs.sampled_type = dr.select(spec_lobe, mi.UInt32(int(mi.BSDFFlags.GlossyReflection)),
+                                        mi.UInt32(int(mi.BSDFFlags.DiffuseReflection)))
             bs.pdf = self._pdf(wi, wo)
-            if bs.pdf <= 0:
-                return bs, mi.Color3f(0.0)
-            return bs, self._eval(wi, wo) / bs.pdf
+            ok = active & (wi.z > 0) & (bs.pdf > 0)
+            return bs, dr.select(ok, self._eval(wi, wo) / dr.maximum(bs.pdf, 1e-20), 0.0)
 
         def eval(self, ctx, si, wo, active=True):
             return self._eval(si.wi, wo)
@@ -126,6 +122,8 @@ def mitsuba_scene(scene, env: float, max_depth: int, spp: int, kind: str, size: 
     shapes = {}
     for k, mat in enumerate(scene.materials):
         tris = scene.indices[scene.material_ids == k]
+        if not len(tris):  # a material no triangle uses (the vectorised variants refuse empty meshes)
+            continue
         used = np.unique(tris)
         remap = np.full(scene.positions.shape[0], -1, np.int64)
         remap[used] = np.arange(used.shape[0])
@@ -163,13 +161,26 @@ def mitsuba_scene(scene, env: float, max_depth: int, spp: int, kind: str, size: 
     return d
 
 
+PASS_SPP = 1024  # samples per pixel a call of mi.render: the vectorised variants hold a call's paths at once
+
+
+def render_in_passes(mi, scene, spp: int) -> np.ndarray:
+    """The mean of spp samples per pixel, rendered PASS_SPP at a time with distinct seeds."""
+    calls = max(1, spp // PASS_SPP)
+    total = np.zeros((0,), np.float64)
+    for seed in range(calls):
+        image = np.asarray(mi.render(scene, spp=min(spp, PASS_SPP), seed=seed), np.float64)[..., :3]
+        total = image if seed == 0 else total + image
+    return (total / calls).astype(np.float32)
+
+
 def main() -> int:
     import mitsuba as mi
 
-    mi.set_variant("scalar_rgb")
+    mi.set_variant(VARIANT)
     from scenes.loaders import load_scene
     from tests.gltf_writer import ggx_grid_document, ggx_spheres_document, write_gltf
-    from tests.scenes_for_tests import closed_box
+    from tests.scenes_for_tests import closed_box, closed_box_ggx
 
     GltfBSDF = gltf_bsdf_class()
     mi.register_bsdf("gltf", lambda props: GltfBSDF(props))
@@ -180,6 +191,7 @@ def main() -> int:
             write_gltf(path, doc)
             scenes[key] = load_scene(str(path))
     scenes["box"] = closed_box()
+    scenes["box_ggx"] = closed_box_ggx()
     only = sys.argv[1:]
     for name, (key, env, depth, spp, kind) in CASES.items():
         if only and name not in only:
@@ -191,7 +203,7 @@ def main() -> int:
 
                 env = write_exr(Path(maps_folder) / f"{env}.exr", getattr(maps, env)())
             d = mitsuba_scene(scenes[key], env, depth, spp, kind, SIZES[key])
-            image = np.asarray(mi.render(mi.load_dict(d)), np.float32)[..., :3]
+            image = render_in_passes(mi, mi.load_dict(d), spp)
         out = ROOT / "tests" / "refs" / f"{name}.npy"
         np.save(out, image.astype(np.float16))
         print(f"{out.relative_to(ROOT)}: {image.shape}, mean {image.mean():.4f}")
