@@ -94,6 +94,10 @@ class MeshArrays:
                 offset += h * w
         self.tex_data = np.ascontiguousarray(np.concatenate(chunks), np.float32)
         self.has_alpha = bool((self.alpha_cutoff >= 0).any())
+        # glTF doubleSided false: primary rays (and the raster) see only the front faces
+        # (counter-clockwise, face_normals' side); every other ray sees both, as in Mitsuba
+        self.single_sided = np.asarray([not m.double_sided for m in mats], bool).reshape(-1)
+        self.has_single_sided = bool(self.single_sided.any())
         # per triangle its 3 vertex colours (glTF COLOR_0, times the base colour), or one white row
         colors = getattr(scene, "colors", None)
         self.tri_colors = (np.ones((1, 9), np.float32) if colors is None else

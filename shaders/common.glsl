@@ -14,6 +14,7 @@ int triangle_material(int prim) {
 struct MaterialSample {
     vec3 albedo; float roughness; float metallic; vec3 emissive; int id;
     float alpha; float cutoff;     // cutoff < 0: never cut away
+    bool single_sided;             // glTF doubleSided false: its back faces are not seen (HAS_SINGLE_SIDED)
     float occlusion;               // the occlusion texture (raster ambient only)
     float normal_layer; vec2 uv; int wrap;
 };
@@ -88,6 +89,10 @@ MaterialSample fetch_material(int id, vec2 uv) {
     m.cutoff = -1.0;
 #ifdef HAS_ALPHA_MASKS
     m.cutoff = t3.w;
+#endif
+    m.single_sided = false;
+#ifdef HAS_SINGLE_SIDED
+    m.single_sided = t2.z == 0.0;
 #endif
     m.id = id;
     return m;

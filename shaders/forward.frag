@@ -123,6 +123,7 @@ void main() {
     m.albedo *= v_color;
 #endif
     if (m.cutoff >= 0.0 && m.alpha < m.cutoff) discard;  // alpha MASK, as in the G-buffer
+    if (m.single_sided && !gl_FrontFacing) discard;  // a single-sided surface seen from behind
     vec3 v = normalize(eye - v_position);
     vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));
     if (dot(ng, v) < 0.0) ng = -ng;

@@ -55,6 +55,7 @@ void main() {
     m.albedo *= v_color;
 #endif
     if (m.cutoff >= 0.0 && m.alpha < m.cutoff) discard;  // alpha MASK (BLEND drawn as MASK)
+    if (m.single_sided && !gl_FrontFacing) discard;  // a single-sided surface seen from behind
     vec3 to_eye = eye - v_position;
     vec3 ng = normalize(cross(dFdx(v_position), dFdy(v_position)));
     if (dot(ng, to_eye) < 0.0) ng = -ng;

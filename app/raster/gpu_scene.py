@@ -165,6 +165,7 @@ class GpuScene:
         names = ("HAS_BASE_TEXTURES", "HAS_ORM_TEXTURES", "HAS_NORMAL_MAPS", "HAS_EMISSION_TEXTURES")
         self.defines = tuple(name for name, k in zip(names, used, strict=True) if k)
         self.defines += ("HAS_ALPHA_MASKS",) if self.alpha_tested else ()
+        self.defines += ("HAS_SINGLE_SIDED",) if any(not m.double_sided for m in mats) else ()
         self.defines += ("HAS_VERTEX_COLORS",) if self.scene.colors is not None else ()
         self.material_table = ctx.texture((table.shape[0], 1), 4, table.tobytes(), dtype="f4")
         self.material_table.filter = (ctx.NEAREST, ctx.NEAREST)

@@ -75,6 +75,8 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     camera_rays(camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
                 np.asarray(jitter, np.float64), width, height, o, d)
     hits = tracer.intersect(o, d)
+    if data.has_single_sided:
+        cull_back_faces(data, tracer, o, d, hits)
     covered = hits.hit
     idx = np.flatnonzero(covered)
     s = data.surface(hits, d, o, sel=idx, out=empty_surface(len(idx), "gbuffer.rt.s") if reuse else None)
@@ -83,3 +85,24 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     depth[idx] = hits.t[idx] * (d[idx] @ f.astype(np.float32))
     soa = s.soa("gbuffer.rt.soa" if reuse else None)[0]
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), d, covered, idx, s, depth, soa)
+
+
+BACK_FACE_LAYERS = 64  # single-sided back faces a primary ray passes at most (trace.slang: ALPHA_LAYERS)
+
+
+def cull_back_faces(arrays, tracer, o: np.ndarray, d: np.ndarray, hits) -> None:
+    """Primary rays that hit the back of a single-sided triangle (glTF doubleSided false: seen
+    from the side its face normal leaves, counter-clockwise) go on from just beyond it
+    (primary.slang does the same); hits is updated in place."""
+    for _ in range(BACK_FACE_LAYERS):
+        rows = np.flatnonzero(hits.prim >= 0)
+        tri = hits.prim[rows]
+        back = arrays.single_sided[arrays.material_ids[tri]]
+        back &= np.einsum("ij,ij->i", d[rows], arrays.face_normals[tri]) > 0
+        rows = rows[back]
+        if not len(rows):
+            return
+        step = hits.t[rows] * np.float32(1.0 + 1e-6) + np.float32(1e-7)
+        again = tracer.intersect(o[rows] + d[rows] * step[:, None], d[rows])
+        hits.prim[rows], hits.u[rows], hits.v[rows] = again.prim, again.u, again.v
+        hits.t[rows] = np.where(again.prim >= 0, step + again.t, again.t)

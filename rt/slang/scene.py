@@ -40,7 +40,8 @@ class DeviceScene:
         self.indices = buffer(a.indices.astype(np.uint32), build)
         self.corners = buffer(a.corners.reshape(-1, 4))  # 4 (7 with tangents) float4 a triangle (common.slang)
         self.corner_rows = a.corners.shape[1] // 4
-        self.face_normals = buffer(np.c_[a.face_normals, np.zeros(len(a.face_normals), np.float32)])
+        # w: 1 where the triangle's material is single-sided (primary.slang culls its back)
+        self.face_normals = buffer(np.c_[a.face_normals, a.single_sided[a.material_ids].astype(np.float32)])
         materials = np.zeros((len(a.base_color), 24), np.float32)  # common.slang: Material
         materials[:, 0:3], materials[:, 3] = a.base_color, a.base_alpha
         materials[:, 4:7], materials[:, 7] = a.emissive, a.roughness
