@@ -21,10 +21,11 @@ from rt.pass_base import RtPass
 class ReferenceOptions:
     max_bounces: int = opt(8, "indirect bounces before a path stops", 1, 64)
     rr_start: int = opt(3, "Russian roulette from this bounce on", 1, 64)
-    mis: bool = opt(True, "combine light sampling and the diffuse bounce's hits on emitters by multiple importance "
-                    "sampling (power heuristic; the study's surface model), and sample the environment by "
-                    "importance against the bounces that escape to it; else light sampling alone for emitters, "
-                    "bounces alone for the environment")
+    mis: bool = opt(True, "combine light sampling and the bounces' hits on emitters by multiple importance "
+                    "sampling (power heuristic: the cosine's density, or with brdf=ggx both lobes'), and sample "
+                    "the environment by importance against the bounces that escape to it; else light sampling "
+                    "alone for emitters (near-mirror GGX lobes by bounces alone), bounces alone for the "
+                    "environment")
 
 
 register_group("reference", ReferenceOptions)

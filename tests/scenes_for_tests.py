@@ -78,6 +78,38 @@ def closed_box_ggx():
     return b.build()
 
 
+def closed_box_mirror():
+    """closed_box_ggx's room lit by its point light and a black one-sided emissive panel facing
+    down under the ceiling,
+    with near-mirror surfaces, smoother than the reference's brdf.MIRROR_ROUGHNESS: a chrome box
+    (roughness 0.05) and a lacquered white one (0.08) beside the gold box (for the reference's
+    multiple importance sampling of GGX lobes against lights)."""
+    b = SceneBuilder("box_mirror")
+    b.material("wall", (0.5, 0.5, 0.5), roughness=0.6)
+    b.material("red", (0.8, 0.1, 0.1), roughness=0.5)
+    b.material("gold", (1.0, 0.78, 0.34), roughness=0.3, metallic=1.0)
+    b.material("chrome", (0.9, 0.9, 0.9), roughness=0.05, metallic=1.0)
+    b.material("lacquer", (0.8, 0.8, 0.8), roughness=0.08)
+    b.material("panel", (0.0, 0.0, 0.0), roughness=1.0, emissive=(6.0, 5.5, 5.0))
+    W, H, D = 4.0, 3.0, 4.0
+    b.add(grid(2, 2), "wall", trs((0, 0, 0), 0, (W, 1, D)))
+    b.add(grid(2, 2), "wall", trs((0, H, 0), 0, (W, 1, D), rotate_x=np.pi))
+    b.add(grid(2, 2), "red", trs((-W / 2, H / 2, 0), np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((W / 2, H / 2, 0), -np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((0, H / 2, -D / 2), 0.0, (W, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "wall", trs((0, H / 2, D / 2), np.pi, (W, 1, H), rotate_x=np.pi / 2))
+    b.add(grid(2, 2), "panel", trs((-0.6, H - 0.3, -0.8), 0, (0.8, 1, 0.8), rotate_x=np.pi))
+    b.box("gold", (0.2, 0.0, -1.2), (1.2, 1.0, -0.2))
+    b.box("chrome", (-1.3, 0.0, -1.4), (-0.5, 0.6, -0.6))
+    b.box("lacquer", (-0.2, 0.0, -1.9), (0.4, 1.4, -1.5))
+    b.light(kind="point", position=(0.0, 2.5, 0.5), intensity=8.0)
+    b.view("room", (0.0, 1.5, 1.9), (0.0, 1.0, -2.0), 70)
+    scene = b.build()
+    for m in scene.materials:  # the panel emits downwards only, black on both sides (as Mitsuba's area light)
+        m.double_sided = m.name != "panel"
+    return scene
+
+
 def mirror_floor(roughness=0.05):
     """A metallic mirror floor in front of a red emissive wall, camera looking down at the floor."""
     b = SceneBuilder("mirror")

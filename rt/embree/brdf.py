@@ -14,7 +14,9 @@ its light samples e (irradiance x cos): e, e w, e D V and e D V w, from which th
 
 Such an accumulator has GGX_COLS columns: the sums, then the point's view direction (towards
 the viewer) and its alpha, written before the light is sampled (start) and read where a light
-sample is added (add_light, in rt/embree/raygen.py). A plain accumulator (3 columns) keeps the
+sample is added (add_light, in rt/embree/raygen.py); the reference path tracer's have one more,
+the specular lobe's share (P_SPEC), with which its emitters' samples are weighted against the
+BRDF's drawing of their directions (raygen._mis_weights). A plain accumulator (3 columns) keeps the
 sum of e alone: the study's Lambert model."""
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ MIN_COS = F(1e-4)
 MIRROR_ROUGHNESS = 0.1  # smoother: the reference path tracer's specular lobe is reached by bounces alone
 SUM_E, SUM_EW, SUM_EDV, SUM_EDVW, VIEW, ALPHA = 0, 3, 6, 9, 12, 15
 GGX_COLS = 16
+P_SPEC = 16  # a 17th column (the reference's accumulators): the specular lobe's share, for MIS (lobes_density)
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -158,6 +161,16 @@ def visible_normal(nx, ny, nz, vx, vy, vz, a, u0, u1):
     inv = ONE / np.sqrt(mx * mx + my * my + mz * mz)
     mx, my, mz = mx * inv, my * inv, mz * inv
     return (mx * tx + my * bx + mz * nx, mx * ty + my * by + mz * ny, mx * tz + my * bz + mz * nz)
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def lobes_density(p_spec, a, vx, vy, vz, nx, ny, nz, x, y, z):
+    """The density with which the BRDF's lobes (the specular picked with p_spec) draw (x, y, z):
+    p_spec x GGX's visible normals reflected (G1(v) D(h) / (4 n.v)) + (1 - p_spec) x the cosine's."""
+    out = (ONE - p_spec) * max(nx * x + ny * y + nz * z, ZERO) * INV_PI
+    if p_spec > ZERO:
+        out += p_spec * visible_normal_density(nx, ny, nz, vx, vy, vz, x, y, z, a)
+    return out
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)

@@ -85,16 +85,6 @@ def lobe_share(ggx, acc, i, base, metallic, nx, ny, nz):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def brdf_density(p_spec, a, vx, vy, vz, nx, ny, nz, x, y, z):
-    """The density with which the BRDF's lobes (picked with p_spec) draw (x, y, z): p_spec x
-    GGX's visible normals reflected (G1(v) D(h) / (4 n.v)) + (1 - p_spec) x the cosine's."""
-    out = (ONE - p_spec) * max(nx * x + ny * y + nz * z, ZERO) * INV_PI
-    if p_spec > ZERO:
-        out += p_spec * brdf.visible_normal_density(nx, ny, nz, vx, vy, vz, x, y, z, a)
-    return out
-
-
-@njit(cache=True, error_model="numpy", fastmath=True)
 def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0,
               diffuse, dx, dy, dz, dd, er, eg, eb, nb):
     cdf, cells_u, cells_v = dist
@@ -118,7 +108,8 @@ def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far
             else:
                 x, y, z = raygen.cosine_about(nx[j], ny[j], nz[j], u1, u2)
             p_map = map_density(cdf, cells_u, cells_v, shift, x, y, z) if share > ZERO else ZERO
-        density = share * p_map + (ONE - share) * brdf_density(p_spec, a, vx, vy, vz, nx[j], ny[j], nz[j], x, y, z)
+        density = share * p_map + (ONE - share) * brdf.lobes_density(p_spec, a, vx, vy, vz, nx[j], ny[j], nz[j], x, y,
+                                                                            z)
         lr, lg, lb = environment_rgb(x, y, z, terms, texels)
         inv = ONE / density if density > ZERO else ZERO
         raygen._light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, lr * inv, lg * inv, lb * inv, dx, dy, dz, dd,

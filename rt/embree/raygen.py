@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from rt.embree import rtcore as embree
-from rt.embree.brdf import SUM_EDVW, add_light
+from rt.embree.brdf import ALPHA, P_SPEC, SUM_EDVW, VIEW, add_light, lobes_density
 from rt.embree.jit import njit
 from rt.embree.kernels import bits_float, float_bits, pixel_key, uniform
 from rt.layout import (
@@ -577,12 +577,15 @@ def _emitter_density(fx, fy, fz, two_sided, area_pdf, pick, t, dx, dy, dz):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb):
+def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb, acc, b0):
     """After _picked_rays, for multiple importance sampling (the reference path tracer's): each
     emitter's sample weighted by the power heuristic against cosine-weighted sampling of its
-    direction. The light's density of that direction: _emitter_density, the point on the
-    triangle found again from the direction and the triangle's plane. Its own loop, so that
-    _picked_rays stays the branch-free one every pass runs."""
+    direction, or with a GGX accumulator that has the lobe's share (acc[b0 + b, P_SPEC]: the
+    reference's) against the BRDF's lobes (brdf.lobes_density). The light's density of that
+    direction: _emitter_density, the point on the triangle found again from the direction and
+    the triangle's plane. Its own loop, so that _picked_rays stays the branch-free one every
+    pass runs."""
+    lobes = acc.shape[1] > P_SPEC
     for b in range(nb):
         if not S[IS_EMITTER, b] > ZERO or not S[INV_PROB, b] > ZERO:
             continue
@@ -594,7 +597,13 @@ def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb):
                                    dz[b])
         if p_light < ZERO:
             continue
-        w = mis_weight(p_light, max(nx[b] * dx[b] + ny[b] * dy[b] + nz[b] * dz[b], ZERO) * INV_PI)
+        if lobes:
+            i = b0 + b
+            p_bsdf = lobes_density(acc[i, P_SPEC], acc[i, ALPHA], acc[i, VIEW], acc[i, VIEW + 1], acc[i, VIEW + 2],
+                                   nx[b], ny[b], nz[b], dx[b], dy[b], dz[b])
+        else:
+            p_bsdf = max(nx[b] * dx[b] + ny[b] * dy[b] + nz[b] * dz[b], ZERO) * INV_PI
+        w = mis_weight(p_light, p_bsdf)
         er[b], eg[b], eb[b] = er[b] * w, eg[b] * w, eb[b] * w
 
 
@@ -660,17 +669,19 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weig
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
             _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
             if mis:
-                _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb)
+                _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb, acc, b0)
         m = _emit(G, g0, b0, nb, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
     return m
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def emission_weights(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights, out):
+def emission_weights(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights, Q, out):
     """out[i]: the power heuristic's weight of the emission found along D[i], drawn
-    cosine-weighted about N[i] from P[i], on triangle prim[i] t[i] away, against
-    one_light_shadow_rays drawing the same direction (its light's pick x _emitter_density; a
-    triangle that is no light's is never drawn so: weight 1); 0 behind a one-sided emitter."""
+    cosine-weighted about N[i] from P[i] (or with density Q[i] where Q is not empty: the
+    reference's GGX lobes), on triangle prim[i] t[i] away, against one_light_shadow_rays drawing
+    the same direction (its light's pick x _emitter_density; a triangle that is no light's is
+    never drawn so: weight 1); 0 behind a one-sided emitter."""
+    given = Q.shape[0] > 0
     n = P.shape[0]
     w = np.empty((max(n_lights, 1), BLOCK), np.float32)
     run = np.empty(BLOCK, np.float32)
@@ -690,7 +701,7 @@ def emission_weights(P, N, D, prim, t, tri_light, tri_row, rows, guide, n_lights
                 pick = (w[k, i] - (w[k - 1, i] if k > 0 else ZERO)) / run[i]
                 p_light = _emitter_density(rows[r, FACE_NORMAL], rows[r, FACE_NORMAL + 1], rows[r, FACE_NORMAL + 2],
                                            rows[r, TWO_SIDED], rows[r, AREA_PDF], pick, t[j], dx, dy, dz)
-            p_bsdf = max(N[j, 0] * dx + N[j, 1] * dy + N[j, 2] * dz, ZERO) * INV_PI
+            p_bsdf = Q[j] if given else max(N[j, 0] * dx + N[j, 1] * dy + N[j, 2] * dz, ZERO) * INV_PI
             out[j] = ZERO if p_light < ZERO else mis_weight(p_bsdf, p_light)
     return out
 

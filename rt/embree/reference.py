@@ -9,8 +9,9 @@ cosine-weighted bounce both reach emitting triangles, combined by multiple impor
 emitter seen close by does not make fireflies; emission counted in full at the camera and
 after mirror bounces (where NEE cannot reach); the environment sampled by importance at the
 same vertices (env_light, one more shadow ray), weighted against the bounces that escape to it
-(_next_vertex). glTF's (trace_paths_ggx): GGX and Lambert lobes, below, with NEE alone for
-emitters. Russian roulette after `reference.rr_start` bounces."""
+(_next_vertex). glTF's (trace_paths_ggx): GGX and Lambert lobes, below, emitters by NEE and
+the bounces combined likewise against both lobes' density. Russian roulette after
+`reference.rr_start` bounces."""
 from __future__ import annotations
 
 import numpy as np
@@ -71,12 +72,13 @@ def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = T
 
 
 def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: bool, mis: bool = False,
-                 escape=None):
+                 escape=None, density=None):
     """A path step's end, shared by both surface models: Russian roulette (roulette: one number
     per point) among the paths kept, their rays along d traced; where they miss, the
     environment's light times beta goes to their pixels (alive), and where they hit, the hit's
     emission for paths whose `counts` is set, and with `mis` for the others (cosine-weighted
-    bounces) weighted against next-event estimation (shading.emission_weight). escape: where the
+    bounces, or drawn with `density` where given: the GGX lobes') weighted against next-event
+    estimation (shading.emission_weight). escape: where the
     environment is sampled too (env_light), (its distribution, each path's density of drawing d
     by its bounce, or -1 where the environment's light along d counts in full): the light of
     rays that miss weighted against the environment's sampling of d. Returns the paths that go
@@ -100,20 +102,26 @@ def _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng, roulette: b
     if mis:
         other = np.flatnonzero(~seen & (sh.emissive.max(axis=1) > 0))  # emitters a diffuse bounce found
         if len(other):
-            w = emission_weight(cf.data, s.take(h[other]), d[h[other]], hits.prim[hit[other]], hits.t[hit[other]])
+            w = emission_weight(cf.data, s.take(h[other]), d[h[other]], hits.prim[hit[other]], hits.t[hit[other]],
+                                None if density is None else density[h[other]])
             radiance[alive[h[other]]] += beta[h[other]] * sh.emissive[other] * w[:, None]
     return alive[h], beta[h], d[h], sh, rng.subset(h)
 
 
 def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = True) -> np.ndarray:
     """trace_paths for glTF's BRDF (rt/embree/brdf.py). At each vertex: next-event estimation
-    with the whole BRDF (both lobes; the diffuse lobe alone where the surface is smoother than
-    brdf.MIRROR_ROUGHNESS, whose near-mirror lobe the bounce alone estimates, emission seen
-    after it counting), then the next direction from one lobe, picked with probability ~ its
+    with the whole BRDF, then the next direction from one lobe, picked with probability ~ its
     estimated weight: GGX's visible normals (weight F G1(l)) or cosine-weighted (weight
-    c_diff (1 - F)). The environment as in trace_paths, its sample weighted against each lobe's
-    (mis). Random dimensions as trace_paths: lobe, light (4), environment (2, where sampled),
-    direction (2), roulette."""
+    c_diff (1 - F)). With `mis`, an emitter's light sample is weighted by the power heuristic
+    against the lobes' drawing of its direction (the mixture's density, brdf.lobes_density) and
+    the emission a bounce finds against the light's drawing of it, as trace_paths does for the
+    cosine; point lights and suns, which bounces cannot find, keep their light samples whole
+    (near-mirror surfaces' highlights included). Without it, emitters are next-event estimation's
+    alone but for surfaces smoother than brdf.MIRROR_ROUGHNESS, whose specular lobe the bounce
+    alone estimates (emission seen after it counting). The environment as in trace_paths, its
+    sample weighted against each lobe's (mis; near-mirror lobes by the bounce alone). Random
+    dimensions as trace_paths: lobe, light (4), environment (2, where sampled), direction (2),
+    roulette."""
     radiance = s.emissive.copy()
     beta = np.ones((len(s), 3), np.float32)
     alive = np.arange(len(s))
@@ -131,14 +139,15 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool
         spec = rng.next(1)[:, 0] < p_spec
         near_mirror = s.roughness < brdf.MIRROR_ROUGHNESS
         # ---- next-event estimation: the light's sums (brdf.py), then the BRDF's lobes ----
-        acc = np.zeros((n, brdf.GGX_COLS), np.float32)
+        acc = np.zeros((n, brdf.P_SPEC + 1), np.float32)
         acc[:, brdf.VIEW:brdf.VIEW + 3] = v
         acc[:, brdf.ALPHA] = a
-        direct_one(cf.data, cf.tracer, s, rng, out=acc)
+        acc[:, brdf.P_SPEC] = p_spec
+        direct_one(cf.data, cf.tracer, s, rng, out=acc, mis=mis)
         e, ew = acc[:, 0:3], acc[:, 3:6]
         edv, edvw = acc[:, 6:9], acc[:, 9:12]
         light = c_diff * INV_PI * (1 - f0) * (e - ew)
-        light += np.where(near_mirror[:, None], 0, f0 * edv + (1 - f0) * edvw)
+        light += np.where((near_mirror & (not mis))[:, None], 0, f0 * edv + (1 - f0) * edvw)
         if env is not None:  # dimensions 5, 6 of the bounce: the environment's sample, both lobes
             ld, p_env, le, cs = env_light(cf, s, rng, env)
             diffuse, specular = brdf.ggx_lobes(s.n, v, ld, s.albedo, s.metallic, a)
@@ -166,14 +175,19 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool
         weight_diff = c_diff * (1 - f_vh) / np.maximum(1 - p_spec, 1e-6)[:, None]
         beta = (beta * np.where(spec[:, None], weight_spec, weight_diff)).astype(np.float32)
         keep = (np.einsum("ij,ij->i", d, s.ng) > 0) & (np.einsum("ij,ij->i", d, s.n) > 0)
-        counts = spec & near_mirror  # emission at the next hit: the near-mirror lobe's, not NEE's
-        escape = None
+        mirrored_lobe = spec & near_mirror
+        # emission at the next hit: in full after the near-mirror lobe without mis, else weighted
+        counts = mirrored_lobe & (not mis)
+        escape = density = None
         if env is not None:  # the density with which the lobe picked drew d
             q = np.where(spec, p_spec * brdf.visible_normal_pdf(s.n, v, d, a),
                          (1 - p_spec) * np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI)
-            escape = (env, np.where(counts, -1.0, q))
+            escape = (env, np.where(mirrored_lobe, -1.0, q))
+        if mis:  # the density of d under both lobes, against the light's drawing of it
+            density = (p_spec * brdf.visible_normal_pdf(s.n, v, d, a)
+                       + (1 - p_spec) * np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI)
         alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng,
-                                                 bounce + 1 >= rr_start, escape=escape)
+                                                 bounce + 1 >= rr_start, mis=mis, escape=escape, density=density)
     return radiance
 
 

@@ -154,7 +154,8 @@ def direct_one(data: SceneData, tracer: Tracer, s: Surface, rng, shadowed: bool 
     contribution there and divided by that probability: accumulates to every light's sum.
     out: an (N,3) array to write into (zeroed here) instead of a new one, or a GGX accumulator
     (rt/embree/brdf.py: its sums zeroed here); G: s.soa() if at hand; mis: emitters' samples
-    weighted against cosine-weighted sampling (the reference's diffuse vertices)."""
+    weighted against cosine-weighted sampling (the reference's diffuse vertices), or with an
+    accumulator that has brdf.P_SPEC against the BRDF's lobes (its GGX vertices)."""
     n = len(s)
     dim = rng.reserve(4)
     total = np.zeros((n, 3), np.float32) if out is None else out
@@ -196,16 +197,19 @@ def trace_from(data: SceneData, tracer: Tracer, s: Surface, dirs: np.ndarray, or
     return out + (hits,) if with_hits else out
 
 
-def emission_weight(data: SceneData, s: Surface, dirs: np.ndarray, prim: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """For rays drawn cosine-weighted from points s along dirs that hit triangles prim t away,
-    the power heuristic's weight of the emission they find against next-event estimation's
-    drawing of the same direction (raygen.emission_weights; 0 behind a one-sided emitter)."""
+def emission_weight(data: SceneData, s: Surface, dirs: np.ndarray, prim: np.ndarray, t: np.ndarray,
+                    density: np.ndarray | None = None) -> np.ndarray:
+    """For rays drawn cosine-weighted (or with the given densities) from points s along dirs
+    that hit triangles prim t away, the power heuristic's weight of the emission they find
+    against next-event estimation's drawing of the same direction (raygen.emission_weights; 0
+    behind a one-sided emitter)."""
     lights = data.lights
     w = np.empty(len(s), np.float32)
+    q = np.zeros(0, np.float32) if density is None else np.ascontiguousarray(density, np.float32)
     if len(s):
         raygen.emission_weights(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
                                 np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row,
-                                lights.emitters[1], lights.guide, lights.count, w)
+                                lights.emitters[1], lights.guide, lights.count, q, w)
     return w
 
 

@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[2]
 VARIANT = "llvm_ad_rgb"  # vectorised on the CPU (Mitsuba's LLVM backend: needs libLLVM); scalar_rgb works too, slowly
 sys.path.insert(0, str(ROOT))
 
-SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48), "box_ggx": (64, 48)}  # width, height
+SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48), "box_ggx": (64, 48), "box_mirror": (64, 48)}  # width, height
 CASES = {
     # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, BSDF: conductor, gltf or diffuse)
     "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, "conductor"),  # the point light alone: direct light
@@ -37,6 +37,8 @@ CASES = {
     "box_direct": ("box", 0.0, 2, 4096, "diffuse"),  # direct light
     "box_gi": ("box", 0.0, 3, 16384, "diffuse"),  # direct light and one bounce (gi.bounces=1)
     "box_ggx_gi": ("box_ggx", 0.0, 3, 65536, "gltf"),  # glTF's BRDF: a metal and glossy boxes, one bounce
+    # and near-mirror boxes under the point light and an emissive panel: the reference's MIS, two bounces
+    "box_mirror_ref": ("box_mirror", 0.0, 4, 65536, "gltf"),
 }
 
 
@@ -143,6 +145,12 @@ def mitsuba_scene(scene, env: float, max_depth: int, spp: int, kind: str, size: 
                     "alpha": float(mat.roughness) ** 2}
         mesh.set_bsdf(mi.load_dict(bsdf))
         shapes[f"m{k}"] = mesh
+        if max(mat.emissive) > 0:  # a one-sided emitter (as Mitsuba's area lights): the mesh
+            # written as PLY, loaded back with its emitter
+            path = str(Path(tempfile.mkdtemp()) / f"m{k}.ply")
+            mesh.write_ply(path)
+            radiance = {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in mat.emissive]}}
+            shapes[f"m{k}"] = {"type": "ply", "filename": path, "bsdf": bsdf, "emitter": radiance}
     light = scene.lights[0]
     d = {"type": "scene", "integrator": {"type": "path", "max_depth": max_depth},
          "sensor": {"type": "perspective", "fov": float(view.fov), "fov_axis": "y",
@@ -180,7 +188,7 @@ def main() -> int:
     mi.set_variant(VARIANT)
     from scenes.loaders import load_scene
     from tests.gltf_writer import ggx_grid_document, ggx_spheres_document, write_gltf
-    from tests.scenes_for_tests import closed_box, closed_box_ggx
+    from tests.scenes_for_tests import closed_box, closed_box_ggx, closed_box_mirror
 
     GltfBSDF = gltf_bsdf_class()
     mi.register_bsdf("gltf", lambda props: GltfBSDF(props))
@@ -192,6 +200,7 @@ def main() -> int:
             scenes[key] = load_scene(str(path))
     scenes["box"] = closed_box()
     scenes["box_ggx"] = closed_box_ggx()
+    scenes["box_mirror"] = closed_box_mirror()
     only = sys.argv[1:]
     for name, (key, env, depth, spp, kind) in CASES.items():
         if only and name not in only:
