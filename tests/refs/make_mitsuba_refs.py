@@ -25,7 +25,8 @@ ROOT = Path(__file__).resolve().parents[2]
 VARIANT = "llvm_ad_rgb"  # vectorised on the CPU (Mitsuba's LLVM backend: needs libLLVM); scalar_rgb works too, slowly
 sys.path.insert(0, str(ROOT))
 
-SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48), "box_ggx": (64, 48), "box_mirror": (64, 48)}  # width, height
+# width, height
+SIZES = {"spheres": (128, 64), "grid": (96, 96), "box": (64, 48), "box_ggx": (64, 48), "box_mirror": (64, 48)}
 CASES = {
     # name: (scene, environment radiance, Mitsuba max_depth, samples per pixel, BSDF: conductor, gltf or diffuse)
     "ggx_spheres_direct": ("spheres", 0.0, 2, 1024, "conductor"),  # the point light alone: direct light
