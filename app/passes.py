@@ -12,20 +12,17 @@ from app.raster.ssao import SSAOPass
 from app.raster.svgf import SvgfPass
 from core.errors import UserError
 from rt import hybrid  # noqa: F401  (registers the hybrid group)
-from rt.ao import AOPass
-from rt.gi import GIPass
+from rt.effects import EFFECTS, PASSES
 from rt.pass_base import GBufferViewPass, PrimaryPass
-from rt.reference import ReferencePass
-from rt.reflections import ReflectionsPass
-from rt.shadows import ShadowsPass
 
 RASTER = ("forward",)
-RAY_TRACED = ("shadows", "reflections", "gi", "ao", "hybrid", "reference")
+# the effects (rt/effects.py), then hybrid, the reference (the ground truth) last
+RAY_TRACED = tuple(e for e in EFFECTS if e != "reference") + ("hybrid", "reference")
 ALL = RASTER + RAY_TRACED + CHANNEL_VIEWS
 
 GL_PASSES = (GBufferPass, GBufferPackPass, ShadowMapPass, SSAOPass, ForwardLightingPass, ChannelViewPass,
              SvgfPass, ReprojectPass, AccumulationPass, OidnPass, DisplayPass)  # made with the GL context
-RT_PASSES = (PrimaryPass, ShadowsPass, ReflectionsPass, GIPass, AOPass, ReferencePass, GBufferViewPass)
+RT_PASSES = (PrimaryPass, *PASSES.values(), GBufferViewPass)
 
 
 def create_passes(ctx) -> dict:

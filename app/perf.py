@@ -26,9 +26,10 @@ from app.machine import machine_info, machine_label, usable_cores
 from app.options import Options
 from app.renderer import Renderer
 from core.errors import UserError
+from rt.effects import EFFECTS
 from scenes.loaders import load_scene
 
-PASSES = ("shadows", "ao", "gi", "reflections", "reference")
+PASSES = EFFECTS
 
 
 def _rss_mb() -> float:
@@ -47,18 +48,18 @@ def set_threads(renderer: Renderer, threads: int) -> None:
 
 
 def record_frame(renderer: Renderer, camera: Camera, size, pass_name: str) -> list:
-    """Render a frame with its rays logged (rt/embree/tracer.py: RayLog), for the replay: the
+    """Render a frame with its rays logged (rt/backends.py: ray_log), for the replay: the
     log is sized from the frame before, and the frame rendered again with a larger one if the
     rays did not fit (a frame's random numbers, and so its ray count, vary a little): the same
     frame, its numbering set back (Renderer.frames_made)."""
-    from rt.embree.tracer import RayLog
+    from rt.backends import ray_log
 
     tracer = renderer.ray_tracing().tracer
     capacity = int(renderer.profiler.counters.get("rays", 0) * 1.25) + 4096
     number = renderer.frames_made
     while True:
         renderer.frames_made = number
-        tracer.recording = log = RayLog(capacity)
+        tracer.recording = log = ray_log(capacity)
         try:
             renderer.render(camera, *size, pass_name)
         finally:
@@ -244,13 +245,13 @@ def run_perf(args) -> int:
         set_threads(renderer, cores)
         renderer.release()
     # acceleration structure build vs triangle count
-    from rt.embree.tracer import EmbreeTracer
+    from rt.backends import standalone_tracer
 
     for level in ((1, 2) if quick else (1, 2, 3, 4, 5)):
         scene = load_scene(f"park:{level}")
         before = _rss_mb()
         t0 = time.perf_counter()
-        tracer = EmbreeTracer(scene.positions, scene.indices)
+        tracer = standalone_tracer(scene.positions, scene.indices)
         build = time.perf_counter() - t0
         doc["bvh"].append({"scene": f"park:{level}", "triangles": scene.triangle_count, "build_s": build,
                            "memory_mb": _rss_mb() - before})

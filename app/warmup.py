@@ -15,6 +15,8 @@ import sys
 import threading
 import time
 
+from rt.effects import EFFECTS
+
 PROG = "rtlab"
 
 # (key, pass, options): every kernel's code. Families share most of their kernels, so each
@@ -93,7 +95,7 @@ def run_warmup(jobs: int | None = None, software_gpu: bool = False, force: bool 
     count), leaving out the kernels this version has compiled already (unless force), and with
     software_gpu the software Vulkan device's pipelines in processes of their own; progress lines
     `rtlab: warmup K/N: NAME (T s)` as each variant starts."""
-    from rt.embree.compile_log import compiled_keys
+    from rt.backends import compiled_keys
 
     done = set() if force else compiled_keys()
     if software_gpu and not _software_vulkan():
@@ -154,7 +156,7 @@ def run_warmup(jobs: int | None = None, software_gpu: bool = False, force: bool 
 def _software_vulkan() -> bool:
     """Whether this machine's Vulkan device is a software one (lavapipe)."""
     from core.errors import UserError
-    from rt.slang.device import describe
+    from rt.backends import describe_device as describe
 
     try:
         info = describe("vulkan")
@@ -163,7 +165,7 @@ def _software_vulkan() -> bool:
     return info is not None and info.software
 
 
-GPU_MODES = ("ao", "shadows", "gi", "reflections", "reference", "hybrid")
+GPU_MODES = (*EFFECTS, "hybrid")
 
 
 def warm_gpu_shaders(kinds: tuple[str, ...] | None = None) -> int:
@@ -176,7 +178,7 @@ def warm_gpu_shaders(kinds: tuple[str, ...] | None = None) -> int:
     from app.options import Options
     from app.renderer import Renderer
     from core.errors import UserError
-    from rt.slang.device import describe
+    from rt.backends import describe_device as describe
     from scenes.builtin import build_builtin
 
     if kinds is None:

@@ -23,3 +23,8 @@ class AOPass(RtPass):
     options = AOOptions
     writes = ("radiance", "rt_ao")
     stream = 2
+
+    @classmethod
+    def parameters(cls, opts) -> dict:
+        return {"rays": opts.get("ao.rays_per_pixel"), "radius": opts.get("ao.radius"),
+                "greyscale": opts.get("ao.greyscale")}

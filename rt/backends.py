@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from core.errors import UserError
 from rt.backend import Backend
+from rt.effects import EFFECTS
 
 NAMES = ("embree", "vulkan", "cuda")
 CHOICES = ("auto",) + NAMES
@@ -27,7 +28,7 @@ def return_freed_memory() -> None:
 
 # what the first frame of each key compiles on the Embree backend: the ray-traced passes, and the
 # ray-traced G-buffer (any pass with gbuffer=rt)
-COMPILED_KEYS = ("shadows", "reflections", "gi", "ao", "hybrid", "reference", "gbuffer=rt")
+COMPILED_KEYS = (*EFFECTS, "hybrid", "gbuffer=rt")
 
 
 SHADERS = "shaders:"  # a key of a Slang device's shaders: "shaders:vulkan"
@@ -76,6 +77,47 @@ def record_compile(key: str, seconds: float | None) -> None:
     from rt.embree import compile_log
 
     compile_log.record(key, seconds)
+
+
+def compiled_keys() -> set[str]:
+    """The keys (COMPILED_KEYS) whose Embree kernels this version has compiled here."""
+    from rt.embree import compile_log
+
+    return compile_log.compiled_keys()
+
+
+def describe_device(kind: str):
+    """A Slang device kind's description here (rt/slang/device.py describe: adapter, software),
+    or None where this machine has no such device with ray tracing; UserError without slangpy."""
+    from rt.slang.device import describe
+
+    return describe(kind)
+
+
+def ray_log(capacity: int):
+    """A log of the rays a frame traces on Embree (rt/embree/tracer.py RayLog), to set as its
+    tracer's `recording` (bench --perf replays it)."""
+    from rt.embree.tracer import RayLog
+
+    return RayLog(capacity)
+
+
+def standalone_tracer(positions, indices):
+    """An Embree tracer over bare triangles (no scene around them): bench --perf times its
+    acceleration structure's build. close() it when done."""
+    init_process()
+    from rt.embree.tracer import EmbreeTracer
+
+    return EmbreeTracer(positions, indices)
+
+
+def pack_rgba_flipped(image, height: int, width: int, channels: int, out) -> None:
+    """out (H, W, 4) float32 = image ((H*W, C) float32, top row first) with its rows flipped
+    (bottom first, as GL textures): its first `channels` channels (one: grey in r, g, b), the
+    others 0 and alpha 1; one compiled pass, for the viewer's uploads of CPU images."""
+    from rt.embree.kernels import pack_rgba_flipped as pack
+
+    pack(image, height, width, channels, out)
 
 
 def available() -> list[dict]:

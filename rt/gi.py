@@ -26,3 +26,8 @@ class GIPass(RtPass):
     writes = ("radiance", "rt_indirect")
     stream = 4
     aux_channels = 3
+
+    @classmethod
+    def parameters(cls, opts) -> dict:
+        return {"rays": opts.get("gi.rays_per_pixel"), "bounces": opts.get("gi.bounces"),
+                "shadows": opts.get("gi.shadows")}

@@ -9,12 +9,19 @@ class RtPass(Pass):
     """A ray-traced effect, and its record (rt/effects.py collects them): name, options, writes
     ("radiance" and its own image, the aux channel, where it has one), and what the backends
     take from here rather than from tables of their own: its random stream (rt/keys.key_base;
-    each effect draws its own numbers, the same on every backend) and its own image's channels."""
+    each effect draws its own numbers, the same on every backend), its own image's channels
+    and its parameters (how its options reach the kernels and shaders)."""
 
     device = "rt"
     reads = ("gbuffer",)
     stream = 0  # its random stream: every effect's differs
     aux_channels = 1  # channels of its own image (or of the unused one, where it has none)
+
+    @classmethod
+    def parameters(cls, opts) -> dict:
+        """Its options as the parameters its kernels and shaders take, by name: the Embree
+        kernels' arguments, the Slang shader's uniforms `g_<name>` (a flag as 0 or 1)."""
+        return {}
 
     @classmethod
     def aux(cls) -> str | None:

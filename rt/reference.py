@@ -37,3 +37,9 @@ class ReferencePass(RtPass):
     option_groups = ("reflections",)  # reflections.roughness_threshold: what reflects
     writes = ("radiance",)
     stream = 5
+
+    @classmethod
+    def parameters(cls, opts) -> dict:
+        return {"threshold": opts.get("reflections.roughness_threshold"),
+                "max_bounces": opts.get("reference.max_bounces"), "rr_start": opts.get("reference.rr_start"),
+                "mis": opts.get("reference.mis")}

@@ -28,3 +28,8 @@ class ReflectionsPass(RtPass):
     writes = ("radiance", "rt_reflection")
     stream = 3
     aux_channels = 4
+
+    @classmethod
+    def parameters(cls, opts) -> dict:
+        return {"threshold": opts.get("reflections.roughness_threshold"), "depth": opts.get("reflections.max_depth"),
+                "lit": opts.get("reflections.lit"), "glossy": opts.get("reflections.glossy")}

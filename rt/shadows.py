@@ -24,3 +24,7 @@ class ShadowsPass(RtPass):
     writes = ("radiance", "rt_direct")
     stream = 1
     aux_channels = 3
+
+    @classmethod
+    def parameters(cls, opts) -> dict:
+        return {"one": opts.get("shadows.lights") == "one", "greyscale": opts.get("shadows.greyscale")}

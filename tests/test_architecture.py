@@ -30,6 +30,19 @@ def test_layers_import_downward_only():
     assert upward == []
 
 
+def test_the_app_reaches_backends_through_their_interface_only():
+    """app/ imports no backend's internals (rt/embree/, rt/slang/), not even inside a function:
+    what it needs of them goes through rt/backend.py and rt/backends.py."""
+    reached = []
+    for path in (ROOT / "app").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else (
+                [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else [])
+            reached += [f"{path.relative_to(ROOT)} imports {n}" for n in names
+                        if n.split(".")[:2] in (["rt", "embree"], ["rt", "slang"])]
+    assert reached == []
+
+
 def test_importing_does_no_process_setup():
     """Importing every module of core, scenes and rt (the kernels aside) leaves the process as it
     was: no allocator settings, no numba cache directory, no Embree loaded."""
@@ -97,15 +110,15 @@ def test_every_option_is_in_the_panel_of_some_mode():
 
 
 def test_each_effect_is_one_record_that_both_backends_read():
-    """An effect's random stream and own image are declared once, on its pass (rt/effects.py):
-    the streams differ (two effects drawing the same numbers would correlate their noise), the
-    aux channel is what the pass writes besides radiance, and both backends trace exactly the
-    effects declared."""
+    """An effect's random stream, own image and parameters are declared once, on its pass
+    (rt/effects.py): the streams differ (two effects drawing the same numbers would correlate
+    their noise), the aux channel is what the pass writes besides radiance, and both backends
+    trace exactly the effects declared, found by name (rt/embree/<effect>.py, shaders/rt/<effect>.slang)."""
     from rt.effects import AUX_CHANNEL, EFFECTS, PASSES, STREAM
-    from rt.embree.backend import TRACE
-    from rt.slang.backend import SHADERS
+    from rt.embree.backend import traces
+    from rt.slang.backend import EFFECTS as DEVICE_EFFECTS
 
     assert len(set(STREAM.values())) == len(EFFECTS) and 0 not in STREAM.values()
     for name, p in PASSES.items():
         assert p.name == name and set(p.writes) == {"radiance"} | ({AUX_CHANNEL[name]} if name in AUX_CHANNEL else set())
-    assert set(TRACE) == set(SHADERS) == set(EFFECTS)
+    assert set(traces()) == set(DEVICE_EFFECTS) == set(EFFECTS)

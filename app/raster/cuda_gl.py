@@ -7,7 +7,7 @@ from __future__ import annotations
 import ctypes
 
 from app.raster.interop import Link, Unavailable
-from rt.slang.libcuda import VOID, CudaError, Driver, P
+from rt.libcuda import VOID, CudaError, Driver, P
 
 REGISTER_NONE = 0
 

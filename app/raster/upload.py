@@ -26,7 +26,7 @@ class Uploads:
         t = self.targets.get(name)
         if t is None:
             t = self.targets[name] = Targets(self.ctx, {"c": (4, "f4")})
-        from rt.embree.kernels import pack_rgba_flipped
+        from rt.backends import pack_rgba_flipped
 
         tex = t.ensure(width, height)["c"]
         img = np.ascontiguousarray(image, np.float32).reshape(height * width, -1)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.effects import STREAM
+from rt.ao import AOPass
 from rt.embree import gather, raygen
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block
@@ -40,7 +40,8 @@ def trace(rf) -> dict:
     """The AO pass over the frame's G-buffer (one compiled call): radiance, and rt_ao (the
     fraction of rays that escape) when asked."""
     out, ao_image = rf.frame_outputs(1, fill=1.0, name="rt_ao")
+    p = AOPass.parameters(rf.options)
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        ao_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, ao_image), rf.key_base(STREAM["ao"]),
-        rf.options.get("ao.rays_per_pixel"), np.float32(rf.options.get("ao.radius")), rf.options.get("ao.greyscale"))
+        ao_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, ao_image), rf.key_base(AOPass.stream),
+        p["rays"], np.float32(p["radius"]), p["greyscale"])
     return rf.outputs(out, rt_ao=ao_image)

@@ -1,20 +1,28 @@
 """The Embree backend behind rt.backend.Backend: the scene's BVH and shading arrays, the CPU
-G-buffer of each frame, and one whole-frame kernel per effect (ao.py, shadows.py, gi.py,
-reflections.py, reference.py). Images are numpy arrays; to_host hands them on as they are."""
+G-buffer of each frame, and one whole-frame kernel per effect: the module rt/embree/<effect>.py,
+whose trace(rf) makes the effect's images (ao.py, shadows.py, gi.py, reflections.py,
+reference.py; traces() finds them by the effects' names). Images are numpy arrays; to_host
+hands them on as they are."""
 from __future__ import annotations
+
+import importlib
+from pathlib import Path
 
 import numpy as np
 
 from rt.backend import AUX_CHANNEL, Backend, FrameInputs
-from rt.embree import ao, gi, reference, reflections, shadows
+from rt.effects import EFFECTS
 from rt.embree.alpha import AlphaData
 from rt.embree.frame import RtFrame
 from rt.embree.gbuffer import from_raster, trace_primary
 from rt.embree.shading import SceneData
 from rt.embree.tracer import EmbreeTracer
 
-TRACE = {"shadows": shadows.trace, "reflections": reflections.trace, "gi": gi.trace, "ao": ao.trace,
-         "reference": reference.trace}
+
+def traces() -> dict:
+    """Each effect this backend traces (those with a module rt/embree/<effect>.py): its trace."""
+    here = Path(__file__).parent
+    return {e: importlib.import_module(f"rt.embree.{e}").trace for e in EFFECTS if (here / f"{e}.py").is_file()}
 
 
 class EmbreeBackend(Backend):
@@ -53,7 +61,7 @@ class EmbreeBackend(Backend):
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
         rf = self.frame
         rf.aux = AUX_CHANNEL.get(effect) in channels  # the effect's second image only when asked
-        result = TRACE[effect](rf)
+        result = importlib.import_module(f"rt.embree.{effect}").trace(rf)
         return {c: result[c] for c in channels}
 
     def gbuffer_view(self, channel: str) -> np.ndarray:

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.effects import STREAM
 from rt.embree import bounce, brdf, env_light, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
+from rt.gi import GIPass
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
@@ -180,8 +180,8 @@ def trace(rf) -> dict:
     """The GI pass over the frame's G-buffer (one compiled call): radiance, and rt_indirect (the
     incoming indirect radiance, albedo x which is the outgoing) when asked."""
     out, indirect_image = rf.frame_outputs(name="rt_indirect")
+    p = GIPass.parameters(rf.options)
     rf.tracer.rays_traced += rf.tracer.run_parallel(
         gi_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, indirect_image),
-        rf.key_base(STREAM["gi"]), rf.options.get("gi.rays_per_pixel"), rf.options.get("gi.bounces"),
-        rf.options.get("gi.shadows"), rf.ggx)
+        rf.key_base(GIPass.stream), p["rays"], p["bounces"], p["shadows"], rf.ggx)
     return rf.outputs(out, rt_indirect=indirect_image)

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.effects import STREAM
 from rt.embree import brdf
 from rt.embree.kernels import uniforms
 from rt.embree.shading import (
@@ -30,6 +29,7 @@ from rt.embree.shading import (
     trace_from,
 )
 from rt.environment import env_distribution
+from rt.reference import ReferencePass
 
 
 def trace_paths(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool = True) -> np.ndarray:
@@ -217,13 +217,13 @@ def env_light(cf, s, rng, env):
 
 def trace(rf) -> dict:
     out = rf.background()
-    bounces, rr = rf.options.get("reference.max_bounces"), rf.options.get("reference.rr_start")
-    mis = bool(rf.options.get("reference.mis"))
+    p = ReferencePass.parameters(rf.options)
+    bounces, rr, mis = p["max_bounces"], p["rr_start"], bool(p["mis"])
     if rf.ggx:
         def paths(cf):
             return trace_paths_ggx(cf, cf.s, cf.view, cf.rng(5), bounces, rr, mis)
     else:
         def paths(cf):
             return trace_paths(cf, cf.s, cf.view, cf.rng(5), bounces, rr, mis)
-    rf.for_chunks(lambda cf: cf.put(out, paths(cf)), streams=(STREAM["reference"],))
+    rf.for_chunks(lambda cf: cf.put(out, paths(cf)), streams=(ReferencePass.stream,))
     return {"radiance": out}

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.effects import STREAM
 from rt.embree import brdf, env_light, gather, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
+from rt.reflections import ReflectionsPass
 
 _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
@@ -289,11 +289,11 @@ def trace(rf) -> dict:
     """The reflections pass over the frame's G-buffer (one compiled call): radiance, and
     rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
     out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
-    get = rf.options.get
-    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(STREAM["reflections"]),
-            np.float32(get("reflections.roughness_threshold")), get("reflections.lit"))
-    if get("reflections.max_depth") > 1 or get("reflections.glossy"):
-        kernel, args = reflections_frame, (*args, get("reflections.max_depth"), rf.ggx, get("reflections.glossy"))
+    p = ReflectionsPass.parameters(rf.options)
+    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(ReflectionsPass.stream),
+            np.float32(p["threshold"]), p["lit"])
+    if p["depth"] > 1 or p["glossy"]:
+        kernel, args = reflections_frame, (*args, p["depth"], rf.ggx, p["glossy"])
     else:
         kernel, args = reflections_one, (*args, rf.ggx)
     rf.tracer.rays_traced += rf.tracer.run_parallel(kernel, len(rf.gb.index), *args)

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.effects import STREAM
 from rt.embree import brdf, env_light, gather, raygen
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block
+from rt.shadows import ShadowsPass
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -70,8 +70,9 @@ def trace(rf) -> dict:
     """The shadows pass over the frame's G-buffer (one compiled call): radiance, and rt_direct
     (irradiance x cos; with GGX the direct radiance) when asked."""
     out, direct = rf.frame_outputs(name="rt_direct")
-    kernel = shadows_one if rf.options.get("shadows.lights") == "one" else shadows_all
+    p = ShadowsPass.parameters(rf.options)
+    kernel = shadows_one if p["one"] else shadows_all
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        kernel, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, direct), rf.key_base(STREAM["shadows"]),
-        rf.options.get("shadows.greyscale"), rf.ggx)
+        kernel, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, direct), rf.key_base(ShadowsPass.stream),
+        p["greyscale"], rf.ggx)
     return rf.outputs(out, rt_direct=direct)

@@ -10,25 +10,19 @@ import numpy as np
 
 from core.errors import DeviceError, UserError
 from rt.backend import Backend, FrameInputs
-from rt.effects import AUX_CHANNEL, AUX_CHANNELS, STREAM
+from rt.effects import AUX_CHANNEL, AUX_CHANNELS, PASSES, STREAM
 from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args, env_distribution
-from rt.slang.device import open_device
+from rt.slang.device import SHADER_DIR, open_device
 from rt.slang.flights import Flights
 from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
 
 MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 and 1, and its closest hit
-# effect: its shader file and ray-generation entry point (its random stream and its own image's
-# channels come from its record: rt/effects.py)
-SHADERS = {
-    "ao": ("ao.slang", "ao_rays"),
-    "shadows": ("shadows.slang", "shadow_rays"),
-    "gi": ("gi.slang", "gi_rays"),
-    "reflections": ("reflections.slang", "reflection_rays"),
-    "reference": ("reference.slang", "reference_rays"),
-}
-EFFECTS = tuple(e for e in ALL_EFFECTS if e in SHADERS)
+# an effect on the device is the shader file shaders/rt/<effect>.slang with the ray-generation
+# entry point <effect>_rays (its random stream, own image and uniforms come from its record:
+# rt/effects.py); the effects this backend traces are those with such a file
+EFFECTS = tuple(e for e in ALL_EFFECTS if (SHADER_DIR / f"{e}.slang").is_file())
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
@@ -301,23 +295,8 @@ class SlangBackend(Backend):
         return self._run(effect, channels)
 
     def _options(self, effect: str, opts) -> dict:
-        """The effect shader's option uniforms."""
-        if effect == "ao":
-            return {"g_rays": int(opts.get("ao.rays_per_pixel")), "g_radius": float(opts.get("ao.radius")),
-                    "g_greyscale": int(bool(opts.get("ao.greyscale")))}
-        if effect == "shadows":
-            return {"g_one": int(opts.get("shadows.lights") == "one"),
-                    "g_greyscale": int(bool(opts.get("shadows.greyscale")))}
-        if effect == "gi":
-            return {"g_rays": int(opts.get("gi.rays_per_pixel")), "g_bounces": int(opts.get("gi.bounces")),
-                    "g_shadows": int(bool(opts.get("gi.shadows")))}
-        if effect == "reference":
-            return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
-                    "g_max_bounces": int(opts.get("reference.max_bounces")),
-                    "g_rr_start": int(opts.get("reference.rr_start")), "g_mis": int(bool(opts.get("reference.mis")))}
-        return {"g_threshold": float(opts.get("reflections.roughness_threshold")),
-                "g_depth": int(opts.get("reflections.max_depth")), "g_lit": int(bool(opts.get("reflections.lit"))),
-                "g_glossy": int(bool(opts.get("reflections.glossy")))}
+        """The effect shader's option uniforms: its record's parameters as `g_<name>` (flags 0 or 1)."""
+        return {f"g_{k}": int(v) if isinstance(v, bool) else v for k, v in PASSES[effect].parameters(opts).items()}
 
     def _run(self, effect: str, channels) -> dict:
         """One effect's pipeline over the image: radiance (3 floats a pixel) and its own image."""
@@ -325,7 +304,7 @@ class SlangBackend(Backend):
 
         inputs = self.inputs
         w, h = inputs.width, inputs.height
-        file, raygen = SHADERS[effect]
+        file, raygen = f"{effect}.slang", f"{effect}_rays"
         stream, aux_channels = STREAM[effect], AUX_CHANNELS[effect]
         aux_name = AUX_CHANNEL.get(effect, "unused")
         out = self._buffer("radiance", w * h * 3, 4)

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rt.slang.libcuda import VOID, Driver, P
+from rt.libcuda import VOID, Driver, P
 
 SLOTS = 2  # frames whose results are kept: the one being recorded and one in flight
 
