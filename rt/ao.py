@@ -23,6 +23,7 @@ class AOPass(RtPass):
     options = AOOptions
     writes = ("radiance", "rt_ao")
     stream = 2
+    lights = False
 
     @classmethod
     def parameters(cls, opts) -> dict:

@@ -16,6 +16,7 @@ class RtPass(Pass):
     reads = ("gbuffer",)
     stream = 0  # its random stream: every effect's differs
     aux_channels = 1  # channels of its own image (or of the unused one, where it has none)
+    lights = True  # it samples the scene's lights (its shader declares g_lights, g_far, g_ggx)
 
     @classmethod
     def parameters(cls, opts) -> dict:

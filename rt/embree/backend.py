@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from rt.backend import AUX_CHANNEL, Backend, FrameInputs
-from rt.effects import EFFECTS
+from rt.effects import EFFECTS, PLUGINS
 from rt.embree.alpha import AlphaData
 from rt.embree.frame import RtFrame
 from rt.embree.gbuffer import from_raster, trace_primary
@@ -20,9 +20,12 @@ from rt.embree.tracer import EmbreeTracer
 
 
 def traces() -> dict:
-    """Each effect this backend traces (those with a module rt/embree/<effect>.py): its trace."""
+    """Each effect this backend traces (those with a module rt/embree/<effect>.py, or from
+    RTLAB_EFFECTS with an embree_trace): its trace."""
     here = Path(__file__).parent
-    return {e: importlib.import_module(f"rt.embree.{e}").trace for e in EFFECTS if (here / f"{e}.py").is_file()}
+    found = {e: PLUGINS[e].embree_trace for e in EFFECTS if hasattr(PLUGINS.get(e), "embree_trace")}
+    return {e: found[e] if e in found else importlib.import_module(f"rt.embree.{e}").trace for e in EFFECTS
+            if e in found or (here / f"{e}.py").is_file()}
 
 
 class EmbreeBackend(Backend):
@@ -61,7 +64,8 @@ class EmbreeBackend(Backend):
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
         rf = self.frame
         rf.aux = AUX_CHANNEL.get(effect) in channels  # the effect's second image only when asked
-        result = importlib.import_module(f"rt.embree.{effect}").trace(rf)
+        result = (PLUGINS[effect].embree_trace if effect in PLUGINS else
+                  importlib.import_module(f"rt.embree.{effect}").trace)(rf)
         return {c: result[c] for c in channels}
 
     def gbuffer_view(self, channel: str) -> np.ndarray:

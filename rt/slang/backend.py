@@ -10,7 +10,7 @@ import numpy as np
 
 from core.errors import DeviceError, UserError
 from rt.backend import Backend, FrameInputs
-from rt.effects import AUX_CHANNEL, AUX_CHANNELS, PASSES, STREAM
+from rt.effects import AUX_CHANNEL, AUX_CHANNELS, PASSES, PLUGINS, STREAM
 from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args, env_distribution
 from rt.slang.device import SHADER_DIR, open_device
@@ -22,7 +22,18 @@ MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 an
 # an effect on the device is the shader file shaders/rt/<effect>.slang with the ray-generation
 # entry point <effect>_rays (its random stream, own image and uniforms come from its record:
 # rt/effects.py); the effects this backend traces are those with such a file
-EFFECTS = tuple(e for e in ALL_EFFECTS if (SHADER_DIR / f"{e}.slang").is_file())
+
+
+def shader_file(effect: str) -> str | None:
+    """The effect's shader (an RTLAB_EFFECTS module's SLANG_SHADER, else shaders/rt/<effect>.slang),
+    or None where it has none."""
+    plugin = getattr(PLUGINS.get(effect), "SLANG_SHADER", None)
+    if plugin is not None:
+        return str(plugin)
+    return f"{effect}.slang" if (SHADER_DIR / f"{effect}.slang").is_file() else None
+
+
+EFFECTS = tuple(e for e in ALL_EFFECTS if shader_file(e) is not None)
 
 
 def _key_words(base: np.uint64) -> tuple[int, int]:
@@ -304,7 +315,7 @@ class SlangBackend(Backend):
 
         inputs = self.inputs
         w, h = inputs.width, inputs.height
-        file, raygen = f"{effect}.slang", f"{effect}_rays"
+        file, raygen = shader_file(effect), f"{effect}_rays"
         stream, aux_channels = STREAM[effect], AUX_CHANNELS[effect]
         aux_name = AUX_CHANNEL.get(effect, "unused")
         out = self._buffer("radiance", w * h * 3, 4)
@@ -316,14 +327,14 @@ class SlangBackend(Backend):
             self.scene.bind_trace(c)
             self._bind_gbuffer(c["g_gbuffer"])
             self._bind_log(c)
-            if effect != "ao":
+            if PASSES[effect].lights:
                 self.scene.bind_lights(c["g_lights"])
                 c["g_far"] = float(self.scene.arrays.far)
             c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
             c["g_width"] = w
 
         def bind(c):
-            if effect != "ao":
+            if PASSES[effect].lights:
                 c["g_ggx"] = int(self.scene.arrays.scene.uses_ggx(inputs.options.get("brdf")))
             self._environment(c["g_env"])
             c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, stream)), np.uint32)
