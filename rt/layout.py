@@ -3,9 +3,9 @@
 Points (raygen.surface_soa; the G-buffer's `soa`): one row per coordinate, one column per
 point, so that a loop over points reads unit-stride rows and vectorises.
 
-Light rows (LIGHT_ROW floats): one per analytic light (raygen.analytic_rows) or per emitting
+Light rows (LIGHT_ROW floats): one per analytic light (light_sampling.analytic_rows) or per emitting
 triangle (shading.LightSet), in the same columns, so that one branch-free loop
-(raygen._picked_rays) can sample whichever kind a point picked."""
+(light_sampling._picked_rays) can sample whichever kind a point picked."""
 
 # a point's rows: position, shading normal, true (geometric) normal
 PX, PY, PZ, NX, NY, NZ, GX, GY, GZ = range(9)
@@ -22,6 +22,6 @@ VERTEX, EDGE1, EDGE2, FACE_NORMAL, EMISSION, TWO_SIDED, AREA_PDF = 0, 3, 6, 9, 1
 LIGHT_ROW = 17
 GPU_LIGHT_ROW = 16  # the columns the Slang backend uploads (its rows are four float4)
 
-# a picked light's row (raygen._gather_picked) adds: 1 / the pick's probability, 1 for an emitter
+# a picked light's row (light_sampling._gather_picked) adds: 1 / the pick's probability, 1 for an emitter
 INV_PROB, IS_EMITTER = 17, 18
 PICKED_ROWS = 19

@@ -108,7 +108,7 @@ class LightSet:
 
     def analytic_rows(self) -> np.ndarray:
         """One light row (rt/layout.py) per analytic light, as the Embree backend's
-        raygen.analytic_rows makes them in its kernels."""
+        light_sampling.analytic_rows makes them in its kernels."""
         kind, pos, d, rad, cos_out, spot_scale, cos_ang, _ = self.analytic
         rows = np.zeros((len(kind), layout.LIGHT_ROW), np.float32)
         spot = kind == 1
@@ -123,7 +123,7 @@ class LightSet:
 
     @property
     def kernel_args(self) -> tuple:
-        """What the Embree backend's raygen.direct_all and direct_one need of the lights."""
+        """What the Embree backend's light_sampling.direct_all and direct_one need of the lights."""
         return self.analytic, self.emitters, self.guide, self.count
 
     @property

@@ -1,7 +1,7 @@
 """The per-point light weights that one-light sampling picks by (rt/embree/raygen.py)."""
 import numpy as np
 
-from rt.embree import raygen, rtcore
+from rt.embree import light_sampling, raygen, rtcore
 
 
 def reference_weights(P, N, guide):
@@ -43,9 +43,9 @@ def test_light_weights_are_running_sums_of_each_kinds_estimate():
     guide = (*(np.ascontiguousarray(pos[:, a]) for a in range(3)), *(np.ascontiguousarray(d[:, a]) for a in range(3)),
              f(5, 2, 1, 3), f(-2, 0.7, -2, -2), f(1, 1 / 0.2, 1, 1), np.array([False, False, True, False]),
              f(0, 4), f(4, 0), f(0, 0), f(0.5, 3.0), f(2, 7))
-    w = np.zeros((6, raygen.BLOCK), np.float32)
-    run = np.zeros(raygen.BLOCK, np.float32)
-    raygen._light_weights(*(np.ascontiguousarray(P[:, a]) for a in range(3)),
+    w = np.zeros((6, light_sampling.BLOCK), np.float32)
+    run = np.zeros(light_sampling.BLOCK, np.float32)
+    light_sampling._light_weights(*(np.ascontiguousarray(P[:, a]) for a in range(3)),
                           *(np.ascontiguousarray(N[:, a]) for a in range(3)), n, guide, w, run)
     want = np.cumsum(reference_weights(P.astype(np.float64), N.astype(np.float64), guide), axis=0)
     np.testing.assert_allclose(w[:, :n], want, rtol=2e-4, atol=1e-9)
@@ -121,7 +121,7 @@ def reference_one_light(P, N, keys, dim, analytic, emitters, guide, far):
 
 def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probability():
     rng = np.random.default_rng(5)
-    n = raygen.BLOCK + 150  # more than one block of points
+    n = light_sampling.BLOCK + 150  # more than one block of points
     P = rng.uniform(-2, 2, (n, 3)).astype(np.float32)
     N = rng.normal(size=(n, 3)).astype(np.float32)
     N /= np.linalg.norm(N, axis=1, keepdims=True)
@@ -129,11 +129,11 @@ def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probabilit
     keys = rng.integers(0, 2**63, n, dtype=np.int64).astype(np.uint64)
     analytic, emitters, guide = _lights()
     far, dim = 50.0, 7
-    weights = np.empty((5 + raygen.SCRATCH_ROWS, raygen.BLOCK), np.float32)
+    weights = np.empty((5 + light_sampling.SCRATCH_ROWS, light_sampling.BLOCK), np.float32)
     o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
                         np.zeros((n, 3), np.float32))
     idx = np.zeros(n, np.int32)
-    m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(far),
+    m = light_sampling.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(far),
                                      weights, o, dirs, tmax, e, idx, rtcore.target(0), raygen.NOT_TRACED)
     ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters, guide, far)
     kept = [i for i, (k, direction, dist, light, _) in enumerate(ref) if direction @ N[i] > 0 and light.max() > 0]
@@ -173,11 +173,11 @@ def test_a_single_light_is_sampled_as_when_picked_among_others():
     far, dim = 50.0, 3
     for k in range(3):  # the point light, the spot, the sun
         analytic, emitters, guide = _only(k)
-        weights = np.empty((1 + raygen.SCRATCH_ROWS, raygen.BLOCK), np.float32)
+        weights = np.empty((1 + light_sampling.SCRATCH_ROWS, light_sampling.BLOCK), np.float32)
         o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
                             np.zeros((n, 3), np.float32))
         idx = np.zeros(n, np.int32)
-        m = raygen.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide,
+        m = light_sampling.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide,
                                          np.float32(far), weights, o, dirs, tmax, e, idx, rtcore.target(0),
                                          raygen.NOT_TRACED)
         with np.errstate(invalid="ignore"):  # 0 / 0 where the light has no weight: those carry nothing

@@ -5,6 +5,7 @@ import pytest
 from app.camera import Camera
 from app.options import Options
 from app.renderer import Renderer
+from rt.embree.blocks import block_keys
 from rt.embree.shading import light_rays, one_light_rays
 from scenes.builtin import build_builtin
 from tests.scenes_for_tests import closed_box, expected_point_radiance, lit_plane, mirror_floor, parallel_planes
@@ -242,7 +243,7 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
 
 def test_one_light_pick_of_a_lone_sun_is_that_suns_own_rays(gl):
     """With a sun as the only light (the street), the one-light estimator picks it everywhere
-    with probability 1 (raygen._sun_rays): its rays are the sun's own shadow rays drawn from
+    with probability 1 (light_sampling._sun_rays): its rays are the sun's own shadow rays drawn from
     the same numbers (its dimensions dim + 1, dim + 2), origin, direction, length and light."""
     from rt.embree import scratch
     from rt.embree.gbuffer import from_raster
@@ -329,7 +330,7 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
 def test_whole_frame_kernels_render_the_same_on_any_thread_count(gl, name, sets, monkeypatch):
     """AO, shadows, GI and reflections (one compiled parallel call per frame each) give the same
     images, their other outputs too, and count the same rays on 1 and 3 threads, whose blocks
-    of points differ (raygen.block_bounds). Equal to the float32 rounding of vectorised loops:
+    of points differ (blocks.block_bounds). Equal to the float32 rounding of vectorised loops:
     a point at a block's edge may take the scalar remainder of a vectorised loop with one block
     size and the vector body with another (GI's light weights: 1 ulp)."""
     from app.passes import PASS_CLASSES
@@ -527,11 +528,10 @@ def test_frame_keys_are_each_chunks_own(gl):
     assert len(seen) > 1 and 2 in rf.keys
     for c, keys, dim in seen.values():
         assert np.array_equal(keys, PixelRng(7, 3, gb.index[c], 2).key) and dim == 0
-    from rt.embree import raygen
 
     # and the keys that whole-frame kernels make block by block
-    assert np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(2)), PixelRng(7, 3, gb.index[5:70], 2).key)
-    assert not np.array_equal(raygen.block_keys(gb.index, 5, 70, rf.key_base(3)), PixelRng(7, 3, gb.index[5:70], 2).key)
+    assert np.array_equal(block_keys(gb.index, 5, 70, rf.key_base(2)), PixelRng(7, 3, gb.index[5:70], 2).key)
+    assert not np.array_equal(block_keys(gb.index, 5, 70, rf.key_base(3)), PixelRng(7, 3, gb.index[5:70], 2).key)
     r.release()
 
 

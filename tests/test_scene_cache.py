@@ -10,7 +10,7 @@ import pytest
 from scenes import cache
 from scenes.loaders import load_scene
 from scenes.loaders.gltf import load_gltf
-from tests.gltf_writer import mesh_scene, uv_sphere, write_gltf
+from tests.gltf_writer import mesh_scene, uv_sphere
 
 
 @pytest.fixture

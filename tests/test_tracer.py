@@ -68,7 +68,7 @@ def test_parallel_kernels_trace_as_the_serial_ones(workers):
     """The replay kernels (bench --perf's raw time), a worker on each of the tracer's threads,
     give the serial kernels' results."""
     from rt.embree import rtcore as embree
-    from rt.embree.raygen import FRAME_BLOCK
+    from rt.embree.blocks import FRAME_BLOCK
     from rt.embree.tracer import EmbreeTracer
 
     positions = np.random.default_rng(2).uniform(-1, 1, (3000, 3)).astype(np.float32)
@@ -147,7 +147,7 @@ def test_freed_scratch_is_reused_without_page_faults():
                                        (921600, 16)])
 def test_frame_blocks_cover_every_point_once_and_shrink_at_the_end(n, workers):
     from rt.embree.kernels import next_block
-    from rt.embree.raygen import FRAME_BLOCK, block_bounds, block_size
+    from rt.embree.blocks import FRAME_BLOCK, block_bounds, block_size
 
     bounds = block_bounds(n, workers)
     assert bounds[0] == 0 and bounds[-1] == n

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rt.ao import AOPass
-from rt.embree import gather, raygen
+from rt.embree import blocks, gather, light_sampling, raygen
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block
 
@@ -25,9 +25,9 @@ def ao_frame(counter, bounds, scene, frame, base, rays, radius, grey):
         b0, b1 = next_block(counter, bounds)
         if b0 >= n:
             break
-        keys = raygen.block_keys(pix, b0, b1, base)
+        keys = blocks.block_keys(pix, b0, b1, base)
         escaped = np.zeros(b1 - b0, np.float32)
-        o, d, t, _, idx = raygen.no_rays()  # traced as they are made: none written out
+        o, d, t, _, idx = light_sampling.no_rays()  # traced as they are made: none written out
         for r in range(rays):  # sample, trace, count: two random numbers per ray
             traced += raygen.hemisphere_live(frame.points, b0, keys, 2 * r, radius, o, d, t, idx,
                                              frame.target, escaped.reshape((b1 - b0, 1)))

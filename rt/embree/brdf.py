@@ -16,7 +16,7 @@ Such an accumulator has GGX_COLS columns: the sums, then the point's view direct
 the viewer) and its alpha, written before the light is sampled (start) and read where a light
 sample is added (add_light, in rt/embree/raygen.py); the reference path tracer's have one more,
 the specular lobe's share (P_SPEC), with which its emitters' samples are weighted against the
-BRDF's drawing of their directions (raygen._mis_weights). A plain accumulator (3 columns) keeps the
+BRDF's drawing of their directions (light_sampling._mis_weights). A plain accumulator (3 columns) keeps the
 sum of e alone: the study's Lambert model."""
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from rt.embree import brdf, raygen
+from rt.embree import brdf, light_sampling, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import environment_rgb, environment_terms, equirect_uv, uniform
@@ -32,7 +32,7 @@ MAP_SHARE = F(0.5)  # the share of a map's samples drawn from its distribution (
 @njit(cache=True)
 def env_dim(n_lights):
     """The environment sample's three random dimensions (strategy, direction): after every
-    light's (raygen.direct_all draws 3 a light, direct_one 4), the same in both backends."""
+    light's (light_sampling.direct_all draws 3 a light, direct_one 4), the same in both backends."""
     return 3 * n_lights + 4
 
 
@@ -112,7 +112,7 @@ def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far
                                                                             z)
         lr, lg, lb = environment_rgb(x, y, z, terms, texels)
         inv = ONE / density if density > ZERO else ZERO
-        raygen._light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, lr * inv, lg * inv, lb * inv, dx, dy, dz, dd,
+        light_sampling._light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, lr * inv, lg * inv, lb * inv, dx, dy, dz, dd,
                           er, eg, eb)
 
 

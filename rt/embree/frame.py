@@ -95,7 +95,7 @@ class RtFrame:
                                key=getattr(work, "__qualname__", None))
 
     def key_base(self, stream: int) -> np.uint64:
-        """What the pixels' keys for a random stream hash their ids with (raygen.block_keys: the
+        """What the pixels' keys for a random stream hash their ids with (blocks.block_keys: the
         whole-frame kernels make each block's keys from it)."""
         from rt.embree.sampling import key_base
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.embree import bounce, brdf, env_light, gather, raygen
+from rt.embree import blocks, bounce, brdf, env_light, gather, light_sampling, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
@@ -40,10 +40,10 @@ def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
         if b0 >= n:
             break
         nb = b1 - b0
-        keys = raygen.block_keys(pix, b0, b1, base)
+        keys = blocks.block_keys(pix, b0, b1, base)
         # dimensions 0-3: the light picked and its sample
         direct = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-        traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
+        traced += light_sampling.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
                                     lit, direct)
         indirect = np.zeros((nb, 3), np.float32)
         outgoing = np.zeros((nb, 3), np.float32)
@@ -125,7 +125,7 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
         hit_points = np.empty((9, k), np.float32)
         raygen.surface_soa(P[:k], N[:k], NG[:k], hit_points)
         hit_direct = brdf.accumulator(ggx, d, hits, rough[:k])
-        traced += m + raygen.direct_one(hit_points, 0, keys_b[:k], scene.lights, dim + 2, scene.far,
+        traced += m + light_sampling.direct_one(hit_points, 0, keys_b[:k], scene.lights, dim + 2, scene.far,
                                         lit, hit_direct)
         env_dim = 4 + 6 * bounces * rays + 3 * (bounces * r + level)
         traced += env_light.env_shadow_rays(hit_points, 0, keys_b[:k], env_dim, frame.env, frame.env_dist,

@@ -25,7 +25,7 @@ class SceneArgs(structref.StructRefProxy):
 
 structref.define_proxy(SceneArgs, SceneArgsType, [
     "mesh",  # SceneData.mesh_args: corners, face normals, material constants, texture layers
-    "lights",  # (analytic, emitters, guide, count): raygen.direct_all's and direct_one's
+    "lights",  # (analytic, emitters, guide, count): light_sampling.direct_all's and direct_one's
     "far",  # the length of rays to a sun or the sky
 ])
 

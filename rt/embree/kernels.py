@@ -115,7 +115,7 @@ def take_next(counter):
 @njit(cache=True, error_model="numpy")
 def next_block(counter, bounds):
     """The next block of points (b0, b1) for a whole-frame kernel's worker (bounds:
-    raygen.block_bounds); b0 >= n when all are taken. Workers take blocks in order as each becomes free
+    blocks.block_bounds); b0 >= n when all are taken. Workers take blocks in order as each becomes free
     (counter: a shared int64 array of one, zeroed), so a worker that drew cheap sky takes more
     and all finish together; the blocks being traced at one time are neighbours, which share the
     BVH's nodes in the cache. (Blocks dealt out in advance, every workers-th to each, left

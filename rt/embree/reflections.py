@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.embree import brdf, env_light, gather, raygen
+from rt.embree import blocks, brdf, env_light, gather, light_sampling, raygen
 from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block, shade_hits
@@ -67,7 +67,7 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
     if lit:
         hg = np.empty((9, k), np.float32)
         raygen.surface_soa(HP, HN, HNG, hg)
-        traced += raygen.direct_one(hg, 0, hkeys, scene.lights, dim0, scene.far, frame.target,
+        traced += light_sampling.direct_one(hg, 0, hkeys, scene.lights, dim0, scene.far, frame.target,
                                     hdirect)
         traced += _env_sample(scene, frame, hg, 0, hkeys, dim0, hdirect, halb, hmetal, hrough < below)
     colour = np.zeros((k, 3), np.float32)
@@ -177,7 +177,7 @@ def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx,
         b0, b1 = next_block(counter, bounds)
         if b0 >= pix.shape[0]:
             return traced
-        keys = raygen.block_keys(pix, b0, b1, base)
+        keys = blocks.block_keys(pix, b0, b1, base)
         local = np.empty((b1 - b0, 3), np.float32)
         traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy and ggx, local)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
@@ -205,7 +205,7 @@ def reflections_one(counter, bounds, scene, frame, base, thr, lit, ggx):
         b0, b1 = next_block(counter, bounds)
         if b0 >= pix.shape[0]:
             return traced
-        keys = raygen.block_keys(pix, b0, b1, base)
+        keys = blocks.block_keys(pix, b0, b1, base)
         local = np.empty((b1 - b0, 3), np.float32)
         traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, False, local)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
@@ -228,7 +228,7 @@ def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local):
                 local[j, a] = albedo[j, a]
         return 0
     acc = brdf.accumulator(ggx, frame.view_dir, frame.pix[b0:b1], frame.roughness[b0:b1])
-    traced = raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, acc)
+    traced = light_sampling.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, acc)
     if frame.env[0] != 0:
         diffuse = frame.roughness[b0:b1] < thr
         if glossy:

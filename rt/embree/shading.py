@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.embree import brdf, kernels, raygen, rtcore, scratch
+from rt.embree import brdf, kernels, light_sampling, raygen, rtcore, scratch
 from rt.embree.tracer import Hits, Tracer
 from rt.lights import LUMA, LightSet  # noqa: F401  (LUMA: re-exported for reference.py)
 from rt.mesh import MeshArrays
@@ -120,10 +120,10 @@ def light_rays(lights: LightSet, k: int, G, keys, dim: int, origin, direction, t
     far = lights.data.far
     out = (origin, direction, tmax, e, idx, rtcore.target(scene), acc)
     if k < lights.count_analytic:
-        return raygen.analytic_shadow_rays(k, *G, keys, dim, lights.analytic, far, *out)
+        return light_sampling.analytic_shadow_rays(k, *G, keys, dim, lights.analytic, far, *out)
     start, rows, keep, alias = lights.emitters
     j = k - lights.count_analytic
-    return raygen.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, *out)
+    return light_sampling.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, *out)
 
 
 def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
@@ -131,8 +131,8 @@ def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax,
     """One shadow ray per point of G = (rows, first column) (Surface.soa) to a light picked
     by its estimated contribution, packed, or if scene traced and added to acc. mis: emitters'
     samples weighted against cosine-weighted sampling (raygen.mis_weight)."""
-    weights = scratch.buffer("light.w", (lights.count + raygen.SCRATCH_ROWS, raygen.BLOCK))
-    return raygen.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
+    weights = scratch.buffer("light.w", (lights.count + light_sampling.SCRATCH_ROWS, light_sampling.BLOCK))
+    return light_sampling.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
                                         lights.data.far, weights, origin, direction, tmax, e,
                                         idx, rtcore.target(scene), acc, mis)
 
@@ -201,13 +201,13 @@ def emission_weight(data: SceneData, s: Surface, dirs: np.ndarray, prim: np.ndar
                     density: np.ndarray | None = None) -> np.ndarray:
     """For rays drawn cosine-weighted (or with the given densities) from points s along dirs
     that hit triangles prim t away, the power heuristic's weight of the emission they find
-    against next-event estimation's drawing of the same direction (raygen.emission_weights; 0
+    against next-event estimation's drawing of the same direction (light_sampling.emission_weights; 0
     behind a one-sided emitter)."""
     lights = data.lights
     w = np.empty(len(s), np.float32)
     q = np.zeros(0, np.float32) if density is None else np.ascontiguousarray(density, np.float32)
     if len(s):
-        raygen.emission_weights(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
+        light_sampling.emission_weights(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
                                 np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row,
                                 lights.emitters[1], lights.guide, lights.count, q, w)
     return w

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.embree import brdf, env_light, gather, raygen
+from rt.embree import blocks, brdf, env_light, gather, light_sampling
 from rt.embree.jit import njit
 from rt.embree.kernels import next_block
 from rt.shadows import ShadowsPass
@@ -18,7 +18,7 @@ def shadows_all(counter, bounds, scene, frame, base, grey, ggx):
     RtFrame.key_base), a shadow ray to every light. One worker of the pass (Tracer.run_parallel
     runs one per thread), taking blocks of points (next_block on counter, bounds) until none is
     left; each block: sample a shadow ray to every light, trace it, add the light of those that
-    get through (raygen.direct_all), then _finish. Returns the rays it traced."""
+    get through (light_sampling.direct_all), then _finish. Returns the rays it traced."""
     pix = frame.pix
     traced = 0
     while True:
@@ -26,15 +26,16 @@ def shadows_all(counter, bounds, scene, frame, base, grey, ggx):
         if b0 >= pix.shape[0]:
             return traced
         irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-        keys = raygen.block_keys(pix, b0, b1, base)
-        traced += raygen.direct_all(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, irradiance)
+        keys = blocks.block_keys(pix, b0, b1, base)
+        traced += light_sampling.direct_all(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target,
+                                      irradiance)
         traced += _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def shadows_one(counter, bounds, scene, frame, base, grey, ggx):
     """shadows_all with one shadow ray per point, to a light picked by its contribution there
-    (raygen.direct_one). A kernel of its own, so that a frame compiles one light sampling."""
+    (light_sampling.direct_one). A kernel of its own, so that a frame compiles one light sampling."""
     pix = frame.pix
     traced = 0
     while True:
@@ -42,8 +43,9 @@ def shadows_one(counter, bounds, scene, frame, base, grey, ggx):
         if b0 >= pix.shape[0]:
             return traced
         irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
-        keys = raygen.block_keys(pix, b0, b1, base)
-        traced += raygen.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target, irradiance)
+        keys = blocks.block_keys(pix, b0, b1, base)
+        traced += light_sampling.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target,
+                                      irradiance)
         traced += _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx)
 
 

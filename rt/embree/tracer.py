@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rt.embree import rtcore as embree
+from rt.embree.blocks import block_bounds
 from rt.embree.kernels import serial_kernels
-from rt.embree.raygen import block_bounds
 
 INF = np.float32(1e30)
 
@@ -60,7 +60,7 @@ class Tracer:
 
     def run_parallel(self, kernel, n: int, *args) -> int:
         """A whole-frame kernel over n points: kernel(counter, bounds, *args) is one worker, which
-        takes blocks of points until none is left (raygen.block_bounds, next_block) and returns
+        takes blocks of points until none is left (blocks.block_bounds, next_block) and returns
         the rays it traced; the sum over workers is returned. This default runs one worker."""
         counter, bounds = np.zeros(1, np.int64), block_bounds(n, 1)
         return int(kernel(counter, bounds, *args))
