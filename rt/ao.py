@@ -10,7 +10,7 @@ from rt.pass_base import RtPass
 
 @dataclass
 class AOOptions:
-    radius: float = opt(1.0, "length of the occlusion rays (m)", 1e-4, 1e4)
+    radius: float = opt(1.0, "length of the occlusion rays (m)", 1e-4, 1e8)
     rays_per_pixel: int = opt(1, "occlusion rays per pixel per frame", 1, 64)
     greyscale: bool = opt(True, "show AO alone; false multiplies it with the albedo")
 
