@@ -37,11 +37,8 @@ def parallel_planes(h=1.0):
     return b.build()
 
 
-def closed_box(albedo=0.5):
-    """A closed 4x3x4 m diffuse room seen from inside, lit by one point light (GI test)."""
-    b = SceneBuilder("box")
-    b.material("wall", (albedo, albedo, albedo), roughness=1.0)
-    b.material("red", (0.8, 0.1, 0.1), roughness=1.0)
+def _room_walls(b) -> None:
+    """closed_box's 4 x 3 x 4 m room: floor, ceiling and walls of material "wall", the left one "red"."""
     W, H, D = 4.0, 3.0, 4.0
     b.add(grid(2, 2), "wall", trs((0, 0, 0), 0, (W, 1, D)))
     b.add(grid(2, 2), "wall", trs((0, H, 0), 0, (W, 1, D), rotate_x=np.pi))
@@ -49,6 +46,14 @@ def closed_box(albedo=0.5):
     b.add(grid(2, 2), "wall", trs((W / 2, H / 2, 0), -np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
     b.add(grid(2, 2), "wall", trs((0, H / 2, -D / 2), 0.0, (W, 1, H), rotate_x=np.pi / 2))
     b.add(grid(2, 2), "wall", trs((0, H / 2, D / 2), np.pi, (W, 1, H), rotate_x=np.pi / 2))
+
+
+def closed_box(albedo=0.5):
+    """A closed 4x3x4 m diffuse room seen from inside, lit by one point light (GI test)."""
+    b = SceneBuilder("box")
+    b.material("wall", (albedo, albedo, albedo), roughness=1.0)
+    b.material("red", (0.8, 0.1, 0.1), roughness=1.0)
+    _room_walls(b)
     b.box("wall", (0.2, 0.0, -1.2), (1.2, 1.0, -0.2))
     b.light(kind="point", position=(0.0, 2.5, 0.5), intensity=8.0)
     b.view("room", (0.0, 1.5, 1.9), (0.0, 1.0, -2.0), 70)
@@ -64,13 +69,7 @@ def closed_box_ggx():
     b.material("red", (0.8, 0.1, 0.1), roughness=0.5)
     b.material("gold", (1.0, 0.78, 0.34), roughness=0.3, metallic=1.0)
     b.material("glossy", (0.8, 0.8, 0.8), roughness=0.35)
-    W, H, D = 4.0, 3.0, 4.0
-    b.add(grid(2, 2), "wall", trs((0, 0, 0), 0, (W, 1, D)))
-    b.add(grid(2, 2), "wall", trs((0, H, 0), 0, (W, 1, D), rotate_x=np.pi))
-    b.add(grid(2, 2), "red", trs((-W / 2, H / 2, 0), np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "wall", trs((W / 2, H / 2, 0), -np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "wall", trs((0, H / 2, -D / 2), 0.0, (W, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "wall", trs((0, H / 2, D / 2), np.pi, (W, 1, H), rotate_x=np.pi / 2))
+    _room_walls(b)
     b.box("gold", (0.2, 0.0, -1.2), (1.2, 1.0, -0.2))
     b.box("glossy", (-1.3, 0.0, -1.4), (-0.5, 0.6, -0.6))
     b.light(kind="point", position=(0.0, 2.5, 0.5), intensity=8.0)
@@ -91,14 +90,8 @@ def closed_box_mirror():
     b.material("chrome", (0.9, 0.9, 0.9), roughness=0.05, metallic=1.0)
     b.material("lacquer", (0.8, 0.8, 0.8), roughness=0.08)
     b.material("panel", (0.0, 0.0, 0.0), roughness=1.0, emissive=(6.0, 5.5, 5.0))
-    W, H, D = 4.0, 3.0, 4.0
-    b.add(grid(2, 2), "wall", trs((0, 0, 0), 0, (W, 1, D)))
-    b.add(grid(2, 2), "wall", trs((0, H, 0), 0, (W, 1, D), rotate_x=np.pi))
-    b.add(grid(2, 2), "red", trs((-W / 2, H / 2, 0), np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "wall", trs((W / 2, H / 2, 0), -np.pi / 2, (D, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "wall", trs((0, H / 2, -D / 2), 0.0, (W, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "wall", trs((0, H / 2, D / 2), np.pi, (W, 1, H), rotate_x=np.pi / 2))
-    b.add(grid(2, 2), "panel", trs((-0.6, H - 0.3, -0.8), 0, (0.8, 1, 0.8), rotate_x=np.pi))
+    _room_walls(b)
+    b.add(grid(2, 2), "panel", trs((-0.6, 2.7, -0.8), 0, (0.8, 1, 0.8), rotate_x=np.pi))  # 0.3 m under the ceiling
     b.box("gold", (0.2, 0.0, -1.2), (1.2, 1.0, -0.2))
     b.box("chrome", (-1.3, 0.0, -1.4), (-0.5, 0.6, -0.6))
     b.box("lacquer", (-0.2, 0.0, -1.9), (0.4, 1.4, -1.5))

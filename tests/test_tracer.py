@@ -146,8 +146,8 @@ def test_freed_scratch_is_reused_without_page_faults():
 @pytest.mark.parametrize("n,workers", [(0, 2), (1, 2), (5000, 2), (40000, 1), (921600, 1), (580000, 2), (921600, 2),
                                        (921600, 16)])
 def test_frame_blocks_cover_every_point_once_and_shrink_at_the_end(n, workers):
-    from rt.embree.kernels import next_block
     from rt.embree.blocks import FRAME_BLOCK, block_bounds, block_size
+    from rt.embree.kernels import next_block
 
     bounds = block_bounds(n, workers)
     assert bounds[0] == 0 and bounds[-1] == n

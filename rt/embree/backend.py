@@ -19,13 +19,18 @@ from rt.embree.shading import SceneData
 from rt.embree.tracer import EmbreeTracer
 
 
+def trace_function(effect: str):
+    """The effect's trace(rf): an RTLAB_EFFECTS module's embree_trace, else rt/embree/<effect>.py's."""
+    plugin = getattr(PLUGINS.get(effect), "embree_trace", None)
+    return plugin if plugin is not None else importlib.import_module(f"rt.embree.{effect}").trace
+
+
 def traces() -> dict:
     """Each effect this backend traces (those with a module rt/embree/<effect>.py, or from
     RTLAB_EFFECTS with an embree_trace): its trace."""
     here = Path(__file__).parent
-    found = {e: PLUGINS[e].embree_trace for e in EFFECTS if hasattr(PLUGINS.get(e), "embree_trace")}
-    return {e: found[e] if e in found else importlib.import_module(f"rt.embree.{e}").trace for e in EFFECTS
-            if e in found or (here / f"{e}.py").is_file()}
+    return {e: trace_function(e) for e in EFFECTS
+            if hasattr(PLUGINS.get(e), "embree_trace") or (here / f"{e}.py").is_file()}
 
 
 class EmbreeBackend(Backend):
@@ -64,8 +69,7 @@ class EmbreeBackend(Backend):
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
         rf = self.frame
         rf.aux = AUX_CHANNEL.get(effect) in channels  # the effect's second image only when asked
-        result = (PLUGINS[effect].embree_trace if effect in PLUGINS else
-                  importlib.import_module(f"rt.embree.{effect}").trace)(rf)
+        result = trace_function(effect)(rf)
         return {c: result[c] for c in channels}
 
     def gbuffer_view(self, channel: str) -> np.ndarray:

@@ -95,8 +95,9 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
     into = indirect if bounces == 1 and not ggx else level_light
     # with ggx: the points' view directions and materials, their rays' weights (bounce.brdf_live)
     # and the paths' weights so far for outgoing (thr_a) and for indirect (thi_a)
-    V, W = np.empty((nb, 3), np.float32), np.empty((nb, 4), np.float32)
-    thi_a, thi_b = np.ones((nb, 3), np.float32), np.empty((nb, 3), np.float32)
+    ng = nb if ggx else 0  # Lambert's paths need none of them
+    V, W = np.empty((ng, 3), np.float32), np.empty((ng, 4), np.float32)
+    thi_a, thi_b = np.ones((ng, 3), np.float32), np.empty((ng, 3), np.float32)
     m_alb, m_metal, m_rough = frame.albedo[b0:b0 + nb], frame.metallic[b0:b0 + nb], frame.roughness[b0:b0 + nb]
     if ggx:
         for i in range(nb):

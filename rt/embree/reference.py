@@ -179,13 +179,13 @@ def trace_paths_ggx(cf, s, view, rng, max_bounces: int, rr_start: int, mis: bool
         # emission at the next hit: in full after the near-mirror lobe without mis, else weighted
         counts = mirrored_lobe & (not mis)
         escape = density = None
-        if env is not None:  # the density with which the lobe picked drew d
-            q = np.where(spec, p_spec * brdf.visible_normal_pdf(s.n, v, d, a),
-                         (1 - p_spec) * np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI)
-            escape = (env, np.where(mirrored_lobe, -1.0, q))
-        if mis:  # the density of d under both lobes, against the light's drawing of it
-            density = (p_spec * brdf.visible_normal_pdf(s.n, v, d, a)
-                       + (1 - p_spec) * np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI)
+        if env is not None or mis:  # the densities with which each lobe draws d
+            q_spec = p_spec * brdf.visible_normal_pdf(s.n, v, d, a)
+            q_diff = (1 - p_spec) * np.maximum(np.einsum("ij,ij->i", d, s.n), 0) * INV_PI
+        if env is not None:  # the lobe picked's, against the environment's drawing of d
+            escape = (env, np.where(mirrored_lobe, -1.0, np.where(spec, q_spec, q_diff)))
+        if mis:  # both lobes', against the light's drawing of it
+            density = q_spec + q_diff
         alive, beta, d_in, s, rng = _next_vertex(cf, s, d, beta, keep, counts, radiance, alive, rng,
                                                  bounce + 1 >= rr_start, mis=mis, escape=escape, density=density)
     return radiance
