@@ -28,15 +28,17 @@ GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 M1 = np.uint64(0xBF58476D1CE4E5B9)
 M2 = np.uint64(0x94D049BB133111EB)
 # A hit found at o + t d (unit d), or from a camera ray and a depth, is off its surface by up to a
-# few ulps of |o| + t: each is lifted HIT_ERROR x (max |o_i| + t) along its true normal when made,
-# so that the nudge of the rays leaving it (raygen.offset_origin) starts on the right side.
+# few ulps of each coordinate's terms |o_i| + |t d_i| (PBRT 4, 6.8): each is lifted HIT_ERROR x
+# sum_i |n_i| (|o_i| + |t d_i|) along its true normal n when made, so that the nudge of the rays
+# leaving it (raygen.offset_origin) starts on the right side. Per coordinate, not the largest:
+# a floor seen 10 km away along it errs by ulps of the camera's height, not of 10 km.
 HIT_ERROR = np.float32(2.0**-20)
 
 
 @njit(cache=True, error_model="numpy")
-def hit_lift(ox, oy, oz, t):
-    """How far a hit t along a unit ray from o is lifted off its surface (HIT_ERROR)."""
-    return (max(abs(ox), abs(oy), abs(oz)) + t) * HIT_ERROR
+def hit_lift(ox, oy, oz, tx, ty, tz, nx, ny, nz):
+    """How far a hit o + t (t: the ray's vector to it) is lifted along its true normal n (HIT_ERROR)."""
+    return (abs(nx) * (abs(ox) + abs(tx)) + abs(ny) * (abs(oy) + abs(ty)) + abs(nz) * (abs(oz) + abs(tz))) * HIT_ERROR
 
 
 @intrinsic
@@ -188,7 +190,7 @@ def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, ro
         if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
             gx, gy, gz = -gx, -gy, -gz
         NG[k, 0], NG[k, 1], NG[k, 2] = gx, gy, gz
-        lift = hit_lift(O[i, 0], O[i, 1], O[i, 2], t[i])
+        lift = hit_lift(O[i, 0], O[i, 1], O[i, 2], D[i, 0] * t[i], D[i, 1] * t[i], D[i, 2] * t[i], gx, gy, gz)
         P[k, 0] = O[i, 0] + D[i, 0] * t[i] + gx * lift
         P[k, 1] = O[i, 1] + D[i, 1] * t[i] + gy * lift
         P[k, 2] = O[i, 2] + D[i, 2] * t[i] + gz * lift
@@ -336,7 +338,7 @@ def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, u
             dz = right[2] * sx + up[2] * sy + fwd[2]
             nx, ny, nz = _octahedral(geometry[r, x, 1])
             gx, gy, gz = _octahedral(geometry[r, x, 2])
-            lift = hit_lift(eye[0], eye[1], eye[2], d * math.sqrt(dx * dx + dy * dy + dz * dz))
+            lift = hit_lift(eye[0], eye[1], eye[2], dx * d, dy * d, dz * d, gx, gy, gz)
             px, py, pz = eye[0] + dx * d + gx * lift, eye[1] + dy * d + gy * lift, eye[2] + dz * d + gz * lift
             P[j, 0], P[j, 1], P[j, 2] = px, py, pz
             N[j, 0], N[j, 1], N[j, 2] = nx, ny, nz
