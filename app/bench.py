@@ -374,8 +374,8 @@ def measure_quality(renderer, camera, size, scene_name, rows, configs, ref_frame
         q = {"flip_single": mean_flip(ref, single), "flip_accumulated": mean_flip(ref, acc),
              "psnr_single": psnr(ref, single), "psnr_accumulated": psnr(ref, acc)}
         q["gain"] = flip_fwd - q["flip_accumulated"]
-        for r in rows:  # the +acc variant shares the images of its configuration
-            if r["config"].partition("+")[0] == config:
+        for r in rows:  # the +acc variant shares the images of its configuration; the denoised ones
+            if r["config"] in (config, f"{config}+acc"):  # are measured by what they do (measure_denoisers)
                 r["quality"] = q
         progress.update(1, f"{scene_name} {config} quality: FLIP {q['flip_accumulated']:.3f}")
     return noise

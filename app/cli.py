@@ -38,7 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--camera", help='a named view or "eye=x,y,z;target=x,y,z;up=x,y,z;fov=DEG"')
     s.add_argument("--out", help="PNG path (default SCENE_PASS.png)")
-    s.add_argument("--raw", help="also write the linear image before tone mapping (.npy, float32 HxWx3)")
+    s.add_argument("--raw", help="also write the linear image before tone mapping (.npy, float32 HxWx3; with "
+                   "--compare split as the PNG is, and beside diff each pixel's FLIP)")
     s.add_argument("--compare", metavar="PASS|diff", help="a second pass right of the divider (same camera and "
                    "options), or diff: FLIP of --pass against the reference path tracer")
     s.add_argument("--split", type=float, default=0.5, metavar="F", help="the divider at this fraction of the "

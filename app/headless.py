@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from app.camera import Camera, parse_camera
-from app.compare import DIFF, REFERENCE_FRAMES, check_compare, compose, flip_map
+from app.compare import DIFF, REFERENCE_FRAMES, check_compare, compose, flip_map, split_columns
 from app.gl_context import check_frame_size, create_headless_context
 from app.graph import check_denoise
 from app.image_io import check_output, write_npy, write_png
@@ -72,7 +72,7 @@ def run_shot(args) -> int:
     display, linear = renderer.read_display(), (renderer.read_linear() if args.raw else None)
     note = ""
     if compare:
-        display, note = _compared(renderer, camera, width, height, args, display, elapsed)
+        display, linear, note = _compared(renderer, camera, width, height, args, display, linear, elapsed)
     write_png(out, display)
     if args.raw:
         write_npy(args.raw, linear)
@@ -82,23 +82,28 @@ def run_shot(args) -> int:
     return 0
 
 
-def _compared(renderer, camera, width: int, height: int, args, left: np.ndarray, left_s: float):
-    """The split image of `--compare`, and what the summary line adds."""
+def _compared(renderer, camera, width: int, height: int, args, left: np.ndarray, left_linear, left_s: float):
+    """The split image of `--compare`, its raw image (None where not asked for: the linear
+    images, or beside `diff` each pixel's FLIP, split at the same column), and what the summary
+    line adds."""
     right_name = args.compare
     t0 = time.perf_counter()
+    raw = left_linear is not None
     if right_name == DIFF:
         frames = max(REFERENCE_FRAMES, args.frames)
         _render_frames(renderer, camera, width, height, "reference", frames)
-        right, mean = flip_map(renderer.read_display(), left)
+        right, mean, *flip_values = flip_map(renderer.read_display(), left, values=raw)
+        right_linear = flip_values[0] if raw else None
         label, note = f"FLIP vs reference ({frames} frames): {mean:.3f}", f", mean FLIP {mean:.4f} vs the reference"
     else:
         _render_frames(renderer, camera, width, height, right_name, args.frames)
-        right = renderer.read_display()
+        right, right_linear = renderer.read_display(), (renderer.read_linear() if raw else None)
         right_s = time.perf_counter() - t0
         label = f"{right_name}: {right_s / args.frames * 1e3:.1f} ms/frame"
         note = f"; {right_name} {right_s:.2f} s"
     image = compose(left, right, args.split, (f"{args.pass_name}: {left_s / args.frames * 1e3:.1f} ms/frame", label))
-    return image, note
+    linear = split_columns(left_linear, right_linear, args.split) if raw else None
+    return image, linear, note
 
 
 def _render_frames(renderer, camera, width: int, height: int, pass_name: str, frames: int,
