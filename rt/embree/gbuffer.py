@@ -74,7 +74,7 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     d = scratch.buffer("gbuffer.rt.d", (n, 3)) if reuse else np.empty((n, 3), np.float32)
     camera_rays(camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
                 np.asarray(jitter, np.float64), width, height, o, d)
-    hits = tracer.intersect(o, d)
+    hits = tracer.intersect_image(o, d, width, height)
     if data.has_single_sided:
         cull_back_faces(data, tracer, o, d, hits)
     covered = hits.hit

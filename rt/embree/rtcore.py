@@ -287,3 +287,71 @@ def intersect_blocks(counter, bounds, scene, o, d, tmax, t, prim, u, v):
         for i in range(b0, b1):
             t[i], prim[i], u[i], v[i] = intersect1(scene, buf, words, b, o[i, 0], o[i, 1], o[i, 2],
                                                    d[i, 0], d[i, 1], d[i, 2], tmax[i])
+
+
+# -- packets of 16 coherent rays (camera rays): rtcIntersect16 on 4 x 4 pixel tiles ------------
+# RTCRayHit16 (embree4/rtcore_ray.h) is structure-of-arrays, 16 lanes a field: the ray's org_x,
+# org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, mask, id, flags, then the hit's Ng_x,
+# Ng_y, Ng_z, u, v, primID, geomID, instID (and instPrimID where built with instance arrays).
+# Neighbouring pixels' rays traverse the same BVH nodes: Embree walks them together, in SIMD.
+PACKET = 16
+PACKET_WORDS = 21 * PACKET  # every field above, with room for instPrimID
+_T_FAR, _U, _V, _PRIM, _GEOM = 8 * PACKET, 15 * PACKET, 16 * PACKET, 17 * PACKET, 18 * PACKET
+# (valid, scene, rayhit, arguments)
+_intersect16 = types.ExternalFunction("rtcIntersect16", types.void(types.uintp, types.uintp, types.uintp,
+                                                                   types.uintp))
+
+
+@njit(cache=True, error_model="numpy")
+def _aligned(n, dtype):
+    """An array of n elements starting on a 64-byte boundary (a view into a larger one)."""
+    buf = np.empty(n + 16, dtype)
+    skip = ((64 - buf.ctypes.data % 64) % 64) // buf.itemsize
+    return buf[skip:skip + n]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
+    """Closest hits (as intersect()) of the rays of a width x height image, o and d in pixel
+    order, traced a 4 x 4 tile at a time as one packet (rtcIntersect16); one worker of
+    Tracer.run_parallel over the tiles, row of tiles by row."""
+    n = bounds[bounds.shape[0] - 1]
+    tiles_x = (width + 3) // 4
+    ray = _aligned(PACKET_WORDS, np.float32)
+    words = ray.view(np.uint32)
+    valid = _aligned(PACKET, np.int32)
+    pix = np.empty(PACKET, np.int64)
+    while True:
+        b0, b1 = next_block(counter, bounds)
+        if b0 >= n:
+            return 0
+        for tile in range(b0, b1):
+            x0, y0 = (tile % tiles_x) * 4, (tile // tiles_x) * 4
+            for k in range(PACKET):
+                x, y = x0 + (k & 3), y0 + (k >> 2)
+                if x < width and y < height:
+                    p = y * width + x
+                    valid[k] = -1
+                else:
+                    p = y0 * width + x0  # a lane left out: any ray, not traced
+                    valid[k] = 0
+                pix[k] = p
+                ray[k], ray[PACKET + k], ray[2 * PACKET + k] = o[p, 0], o[p, 1], o[p, 2]
+                ray[3 * PACKET + k] = 0.0  # tnear
+                ray[4 * PACKET + k], ray[5 * PACKET + k], ray[6 * PACKET + k] = d[p, 0], d[p, 1], d[p, 2]
+                ray[7 * PACKET + k] = 0.0  # time
+                ray[_T_FAR + k] = MISS_T
+                words[9 * PACKET + k] = INVALID  # mask: every geometry
+                words[10 * PACKET + k] = 0  # id
+                words[11 * PACKET + k] = 0  # flags
+                words[_PRIM + k] = INVALID
+                words[_GEOM + k] = INVALID
+            _intersect16(valid.ctypes.data, scene, ray.ctypes.data, 0)
+            for k in range(PACKET):
+                if valid[k] == 0:
+                    continue
+                p = pix[k]
+                if words[_GEOM + k] == INVALID:
+                    t[p], prim[p], u[p], v[p] = MISS_T, -1, 0.0, 0.0
+                else:
+                    t[p], prim[p], u[p], v[p] = ray[_T_FAR + k], np.int32(words[_PRIM + k]), ray[_U + k], ray[_V + k]

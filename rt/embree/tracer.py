@@ -46,6 +46,11 @@ class Tracer:
         """(N,) bool: something lies between origin and origin + tmax * dir."""
         raise NotImplementedError
 
+    def intersect_image(self, origins: np.ndarray, dirs: np.ndarray, width: int, height: int) -> Hits:
+        """intersect() of an image's rays (camera rays, in pixel order, row by row): a backend
+        may trace neighbouring pixels together. This default traces them one by one."""
+        return self.intersect(origins, dirs)
+
     def inline_scene(self) -> int:
         """An Embree scene handle with which compiled ray generators may trace their occlusion
         rays themselves as they make them (rt/embree/raygen.py), or 0: the caller traces them with
@@ -159,6 +164,21 @@ class EmbreeTracer(Tracer):
             self.recording.add("intersect", o, d, dist)
         if n:
             self._map(lambda c: embree.intersect(self.handle, o[c], d[c], dist[c], t[c], prim[c], u[c], v[c]), n)
+        self.rays_traced += n
+        return Hits(t, prim, u, v)
+
+    def intersect_image(self, origins, dirs, width: int, height: int) -> Hits:
+        """Packets of 4 x 4 pixels (rtcore.intersect_tiles) on this tracer's threads."""
+        o = np.ascontiguousarray(origins, np.float32)
+        d = np.ascontiguousarray(dirs, np.float32)
+        n = o.shape[0]
+        t, prim = np.empty(n, np.float32), np.empty(n, np.int32)
+        u, v = np.empty(n, np.float32), np.empty(n, np.float32)
+        if self.recording is not None:
+            self.recording.add("intersect", o, d, _distances(INF, n))
+        if n:
+            tiles = ((width + 3) // 4) * ((height + 3) // 4)
+            self.run_parallel(embree.intersect_tiles, tiles, self.handle, o, d, width, height, t, prim, u, v)
         self.rays_traced += n
         return Hits(t, prim, u, v)
 
