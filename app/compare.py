@@ -77,13 +77,16 @@ def label_layout(draw, width: int, height: int, labels: tuple[str, str]):
     at the top right, in the largest font (10-18 px by the image's height, down to 8) at which
     they fit side by side; where they do not, the right one on a second row; a label wider than
     the image cut short with "..."."""
+    def side_by_side(texts, font) -> bool:  # both boxes (text + 6), the margins and a gap
+        return sum(_text_box(draw, t, font)[0] + 6 for t in texts) + 16 <= width
+
     for size in range(max(10, min(18, height // 20)), 7, -1):
         font = _font(size)
-        if sum(_text_box(draw, t, font)[0] + 6 for t in labels) + 16 <= width:
+        if side_by_side(labels, font):
             break
     texts = [_fitted(draw, t, font, width - 8) for t in labels]
     (w0, h0), (w1, h1) = (_text_box(draw, t, font) for t in texts)
-    y1 = 2 if w0 + w1 + 12 + 16 <= width else 2 + h0 + 6 + 2
+    y1 = 2 if side_by_side(texts, font) else 2 + h0 + 6 + 2
     return font, texts, [(4, 2, 4 + w0 + 6, 2 + h0 + 6), (width - 4 - w1 - 6, y1, width - 4, y1 + h1 + 6)]
 
 

@@ -96,7 +96,7 @@ class LightSet:
         self.emitters = (np.asarray(start, np.int64), rows,
                          f32(np.concatenate(keep) if keep else [], (-1,)),
                          np.concatenate(alias).astype(np.int32) if alias else np.zeros(0, np.int32))
-        # what picking a light needs, as structure-of-arrays (rt/embree/raygen.py: _light_weights); point
+        # what picking a light needs, as structure-of-arrays (rt/embree/light_sampling.py: _light_weights); point
         # lights get a cone that is never cut (t = 1)
         spot = kind == 1
         col = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731

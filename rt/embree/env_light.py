@@ -113,7 +113,7 @@ def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far
         lr, lg, lb = environment_rgb(x, y, z, terms, texels)
         inv = ONE / density if density > ZERO else ZERO
         light_sampling._light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, lr * inv, lg * inv, lb * inv, dx, dy, dz, dd,
-                          er, eg, eb)
+                                  er, eg, eb)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)

@@ -44,7 +44,7 @@ def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
         # dimensions 0-3: the light picked and its sample
         direct = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
         traced += light_sampling.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far,
-                                    lit, direct)
+                                            lit, direct)
         indirect = np.zeros((nb, 3), np.float32)
         outgoing = np.zeros((nb, 3), np.float32)
         for r in range(rays):
@@ -127,7 +127,7 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
         raygen.surface_soa(P[:k], N[:k], NG[:k], hit_points)
         hit_direct = brdf.accumulator(ggx, d, hits, rough[:k])
         traced += m + light_sampling.direct_one(hit_points, 0, keys_b[:k], scene.lights, dim + 2, scene.far,
-                                        lit, hit_direct)
+                                                lit, hit_direct)
         env_dim = 4 + 6 * bounces * rays + 3 * (bounces * r + level)
         traced += env_light.env_shadow_rays(hit_points, 0, keys_b[:k], env_dim, frame.env, frame.env_dist,
                                             scene.far, lit, hit_direct, alb[:k], metal[:k])

@@ -68,7 +68,7 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
         hg = np.empty((9, k), np.float32)
         raygen.surface_soa(HP, HN, HNG, hg)
         traced += light_sampling.direct_one(hg, 0, hkeys, scene.lights, dim0, scene.far, frame.target,
-                                    hdirect)
+                                            hdirect)
         traced += _env_sample(scene, frame, hg, 0, hkeys, dim0, hdirect, halb, hmetal, hrough < below)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)

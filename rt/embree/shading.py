@@ -133,8 +133,8 @@ def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax,
     samples weighted against cosine-weighted sampling (raygen.mis_weight)."""
     weights = scratch.buffer("light.w", (lights.count + light_sampling.SCRATCH_ROWS, light_sampling.BLOCK))
     return light_sampling.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
-                                        lights.data.far, weights, origin, direction, tmax, e,
-                                        idx, rtcore.target(scene), acc, mis)
+                                                lights.data.far, weights, origin, direction, tmax, e,
+                                                idx, rtcore.target(scene), acc, mis)
 
 
 def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int, G) -> None:
@@ -208,8 +208,8 @@ def emission_weight(data: SceneData, s: Surface, dirs: np.ndarray, prim: np.ndar
     q = np.zeros(0, np.float32) if density is None else np.ascontiguousarray(density, np.float32)
     if len(s):
         light_sampling.emission_weights(s.p, s.n, np.ascontiguousarray(dirs, np.float32), np.ascontiguousarray(prim),
-                                np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row,
-                                lights.emitters[1], lights.guide, lights.count, q, w)
+                                        np.ascontiguousarray(t, np.float32), lights.tri_light, lights.tri_row,
+                                        lights.emitters[1], lights.guide, lights.count, q, w)
     return w
 
 

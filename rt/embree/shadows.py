@@ -28,7 +28,7 @@ def shadows_all(counter, bounds, scene, frame, base, grey, ggx):
         irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
         keys = blocks.block_keys(pix, b0, b1, base)
         traced += light_sampling.direct_all(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target,
-                                      irradiance)
+                                            irradiance)
         traced += _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx)
 
 
@@ -45,7 +45,7 @@ def shadows_one(counter, bounds, scene, frame, base, grey, ggx):
         irradiance = brdf.accumulator(ggx, frame.view_dir, pix[b0:b1], frame.roughness[b0:b1])
         keys = blocks.block_keys(pix, b0, b1, base)
         traced += light_sampling.direct_one(frame.points, b0, keys, scene.lights, 0, scene.far, frame.target,
-                                      irradiance)
+                                            irradiance)
         traced += _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx)
 
 
