@@ -78,6 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="option for every configuration, e.g. tracer=vulkan (repeatable)")
     s.add_argument("--out", default="bench", help="output folder (default ./bench)")
     s.add_argument("--quick", action="store_true", help="small smoke run: 160x90, 2 frames, small reference")
+    add_cluster_arguments(s)
     s.add_argument("--perf", action="store_true", help="ray-tracing efficiency, thread scaling, transfers, BVH builds")
     s.add_argument("--load", nargs="?", const="default", metavar="TRIANGLES,TEXTURES",
                    help="big scenes: a generated glTF of that many triangles and textures (default 10000000,500; "
@@ -91,6 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     from app.study import add_arguments
 
     add_arguments(s)
+    add_cluster_arguments(s)
 
     s = sub.add_parser("warmup", help="compile every ray-tracing kernel ahead of use (once per version)")
     s.add_argument("--jobs", type=int, metavar="N", help="processes compiling side by side (default: one per "
@@ -186,7 +188,16 @@ def cmd_view(args) -> int:
     return run_viewer(args)
 
 
+def add_cluster_arguments(s) -> None:
+    s.add_argument("--cluster", metavar="ADDRESS", help="run the units of work as Ray tasks on a cluster: auto, "
+                   "HOST:PORT or ray://HOST:PORT (pip install 'rtlab[cluster]'; one GPU a task where it has GPUs)")
+    s.add_argument("--task-cpus", type=int, metavar="N", help="with --cluster and Embree: CPUs of each unit but "
+                   "the timed ones, which take a whole node (default 1)")
+
+
 def cmd_bench(args) -> int:
+    if args.cluster and (args.load or args.perf):
+        raise UserError("--cluster runs the bench's sweep; --perf and --load measure one machine")
     if args.load:
         from app.bench_load import run_load_bench
 

@@ -36,7 +36,11 @@ def recommend(rows: list[dict], budget_ms: float | None = None) -> dict:
         q = r.get("quality") or {}
         if effect is None or q.get("gain") is None or r.get("accumulate"):
             continue
-        delta = r["frame_ms"]["mean"] - base_ms  # negative: cheaper than the forward baseline here
+        # against the forward frame measured on the same kind of machine (bench --cluster)
+        base = r.get("forward_ms", base_ms)
+        if base is None:  # none was: no cost to compare
+            continue
+        delta = r["frame_ms"]["mean"] - base  # negative: cheaper than the forward baseline here
         extra = max(delta, 1e-3)
         cand = {"config": r["config"], "effect": effect, "gain": q["gain"], "extra_ms": extra, "delta_ms": delta,
                 "gain_per_ms": q["gain"] / extra}

@@ -94,7 +94,8 @@ class Renderer:
         self.prev_camera = None
         self.frame: Frame | None = None
         self.seed = 0
-        self.frames_made = 0  # frames since reset() or a change but the camera's: their draws and jitter
+        # frames since reset() or a change but the camera's: their draws and jitter
+        self.frames_made = self.first_frame = 0
         # the viewer sets this: a deterministic (raster) frame whose inputs did not change is
         # shown again instead of re-rendered, which keeps the UI responsive on software GL
         self.reuse_static_frames = False
@@ -225,10 +226,11 @@ class Renderer:
     def frame_count(self) -> int:
         return self.accumulation.count
 
-    def reset(self) -> None:
-        """Start afresh: accumulation, the frame numbering and every pass's history (SVGF's)."""
+    def reset(self, first_frame: int = 0) -> None:
+        """Start afresh: accumulation, the frame numbering (from first_frame: a batch of a longer
+        run, numbered as that run numbers it) and every pass's history (SVGF's)."""
         self._state = None
-        self.frames_made = 0
+        self.frames_made = self.first_frame = first_frame
         for p in self.passes.values():
             p.reset()
 
@@ -280,7 +282,7 @@ class Renderer:
             # the count of still frames restarts
             moved = bool(self.options.get("reproject")) and camera_only
             if not camera_only:  # another image: numbered afresh, as a new renderer's would be
-                self.frames_made = 0
+                self.frames_made = self.first_frame
             self.accumulation.reset()
             self._state = state
         self.profiler.begin_frame()

@@ -54,7 +54,8 @@ def technique_tables(doc: dict) -> list[tuple[str, list[str], list[list[str]]]]:
                                                                                      f"{cfg}+acc")):
             if any((s, key) in idx for s in scenes):
                 rows.append([label] + [f"{idx[(s, key)]['fps']:.2f}" if (s, key) in idx else "–" for s in scenes])
-        rows.append(["cost vs forward"] + [f"×{idx[(s, cfg)]['relative_cost']:.1f}" if (s, cfg) in idx else "–"
+        rows.append(["cost vs forward"] + [
+            f"×{idx[(s, cfg)]['relative_cost']:.1f}" if idx.get((s, cfg), {}).get("relative_cost") else "–"
                                            for s in scenes])
         tables.append((f"{title}: frames per second", ["fps"] + scenes, rows))
     return tables
@@ -240,6 +241,24 @@ def gallery(doc: dict, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:
     return out
 
 
+def cluster_section(doc: dict):
+    """A run on a Ray cluster (bench --cluster): the cluster, and each kind of machine with the
+    rows it measured (results.json has each row's host and node in measured_on); None otherwise."""
+    c = doc["machine"].get("cluster")
+    if not c:
+        return None
+    text = (f"Measured on a Ray cluster ({c['address']}): {c['nodes']} node(s), {c['gpus']} GPU(s), {c['cpus']} "
+            f"CPUs; tasks took {c['tasks']}. Each row's cost against the forward frame compares it with the forward "
+            "frame measured on the same kind of machine.")
+    by_kind: dict[str, list] = {}
+    for r in doc["results"]:
+        on = r.get("measured_on") or {}
+        by_kind.setdefault(on.get("kind", "?"), []).append(r)
+    rows = [[kind, str(len(rs)), ", ".join(sorted({r["measured_on"].get("host", "?") for r in rs}))]
+            for kind, rs in sorted(by_kind.items(), key=lambda kv: -len(kv[1]))]
+    return text, ["machine (kind)", "rows measured", "hosts"], rows
+
+
 def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> None:
     budget_ms = budget_ms if budget_ms is not None else doc["settings"].get("budget_ms")
     label = machine_label(doc["machine"], doc.get("tracer"))
@@ -253,6 +272,9 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
              f"traced, one frame and {s['quality_frames']} accumulated frames, against the reference path tracer "
              f"converged over {s['reference_frames']} frames; mean FLIP (LDR) and PSNR." if s.get("quality") else
              "Quality was not measured (--no-quality)."), ""]
+    cluster = cluster_section(doc)
+    if cluster:
+        md += [cluster[0], ""] + _table(cluster[1], cluster[2]) + [""]
     if doc.get("merged_from"):
         md += [f"Results of {len(doc['merged_from'])} bench runs on this machine, concatenated: "
                + "; ".join(f"`rtlab {m}`" for m in doc["merged_from"]) + ".", ""]
@@ -327,6 +349,9 @@ def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, ga
              "margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}th{background:#eee}"
              "img{max-width:100%;margin:2px}.gal img{width:220px}</style>",
              "<h1>rtlab benchmark report</h1>", f"<p>Machine: <b>{html.escape(label)}</b></p>"]
+    cluster = cluster_section(doc)
+    if cluster:
+        parts += [f"<p>{html.escape(cluster[0])}</p>", _html_table(cluster[1], cluster[2])]
     for title, header, rows in sections:
         parts += [f"<h2>{html.escape(title)}</h2>", _html_table(header, rows)]
     parts += ["<h2>Per-pass time breakdown</h2>", _html_table(bh, brows)]

@@ -44,5 +44,6 @@ def run_study(args) -> int:
         quality_size="96x54" if args.quick else args.size,
         reference_frames=16 if args.quick else args.reference_frames, reference_noise=0.01,
         quality_frames=4 if args.quick else None, no_quality=False, path_frames=8 if args.quick else None,
-        budget_ms=None, set=sets, out=args.out, quick=args.quick, resume=True)
+        budget_ms=None, set=sets, out=args.out, quick=args.quick, resume=True,
+        cluster=getattr(args, "cluster", None), task_cpus=getattr(args, "task_cpus", None))
     return run_bench(bench)

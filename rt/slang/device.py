@@ -90,11 +90,18 @@ def open_device(kind: str):
                                                 "floating_point_mode": spy.SlangFloatingPointMode.fast})
             device_type = spy.DeviceType.vulkan if kind == "vulkan" else spy.DeviceType.cuda
             cache = _cache_dir(kind)
+            # an index into this kind's adapters: bench --cluster gives each GPU task of a node with
+            # several GPUs its own (CUDA needs none: Ray narrows CUDA_VISIBLE_DEVICES to the task's)
+            chosen = os.environ.get("RTLAB_ADAPTER")
+            luid = None
+            if chosen and kind == "vulkan":
+                adapters = spy.Device.enumerate_adapters(device_type)
+                luid = adapters[int(chosen) % len(adapters)].luid if adapters else None
             with _quiet():
                 # compiled modules and pipelines are cached on disk: a process after the first
                 # does not compile the shaders again (rtlab warmup fills the cache)
                 found = spy.Device(type=device_type, enable_rhi_validation=False, compiler_options=options,
-                                   enable_hot_reload=False, module_cache_path=str(cache / "modules"),
+                                   enable_hot_reload=False, adapter_luid=luid, module_cache_path=str(cache / "modules"),
                                    shader_cache_path=str(cache / "shaders"))
             if not found.has_feature(spy.Feature.ray_tracing):
                 found = UserError(f"the {kind} device ({found.info.adapter_name}) has no ray tracing")

@@ -1,0 +1,70 @@
+"""The bench's configurations: each a pass and its options, and what of it is measured (the
+timed frames, the quality of its effect in the forward frame, denoised variants, the camera
+path's configuration)."""
+from __future__ import annotations
+
+from core.errors import UserError
+from rt.hybrid import EFFECTS as HYBRID_EFFECTS
+
+# name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on, and the
+# one-sample ones as NAME+svgf and NAME+oidn: each frame denoised, without accumulation
+CONFIGS = {
+    "forward": ("forward", []),
+    "reflections": ("reflections", []),
+    "shadows_all": ("shadows", ["shadows.lights=all"]),
+    "shadows_one": ("shadows", ["shadows.lights=one"]),
+    "gi_1": ("gi", ["gi.rays_per_pixel=1", "gi.shadows=false"]),
+    "gi_4": ("gi", ["gi.rays_per_pixel=4", "gi.shadows=false"]),
+    "gi_shadows": ("gi", ["gi.rays_per_pixel=1", "gi.shadows=true"]),
+    "ao_1": ("ao", ["ao.rays_per_pixel=1"]),
+    "ao_4": ("ao", ["ao.rays_per_pixel=4"]),
+    "hybrid": ("hybrid", []),
+    "hybrid_gi": ("hybrid", ["hybrid.gi=true"]),  # RT shadows and RT GI (one ray a pixel) in the forward frame
+}
+HYBRID_EFFECT = {"reflections": "reflections", "shadows_all": "shadows", "shadows_one": "shadows", "gi_1": "gi",
+                 "gi_4": "gi", "gi_shadows": "gi", "ao_1": "ao", "ao_4": "ao"}
+DENOISERS = ("svgf", "oidn")
+# profiler entries that move images between GL, the host and a ray-tracing device
+TRANSFERS = ("gbuffer_readback", "gbuffer_share", "device_readback", "upload", "share")
+DENOISED = ("gi_1", "gi_shadows", "ao_1", "shadows_one")
+DENOISE_FRAMES = 16  # a denoised configuration's image: its 16th frame (SVGF's history fills), against 16 accumulated
+ALL_CONFIGS = (list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
+               + [f"{c}+{d}" for c in DENOISED for d in DENOISERS])
+DEFAULT_SCENES = ("arcade", "street", "cafe", "park", "temple")
+
+
+def parse_configs(text: str | None) -> list[str]:
+    if not text:
+        return ALL_CONFIGS
+    out = []
+    for name in (c.strip() for c in text.split(",")):
+        if name not in ALL_CONFIGS:
+            raise UserError(f"--configs: unknown configuration {name!r}; choose from {', '.join(ALL_CONFIGS)}")
+        out.append(name)
+    if "forward" not in out:
+        out.insert(0, "forward")  # every cost is relative to the forward baseline
+    return out
+
+
+def config_options(config: str) -> tuple[str, list[str]]:
+    base, _, suffix = config.partition("+")
+    pass_name, sets = CONFIGS[base]
+    if suffix in DENOISERS:
+        return pass_name, sets + ["accumulate=false", f"denoise={suffix}"]
+    return pass_name, sets + [f"accumulate={'true' if suffix else 'false'}"]
+
+
+def quality_options(config: str) -> list[str]:
+    """The forward renderer with only this configuration's effect ray traced."""
+    base = config.partition("+")[0]
+    _, sets = CONFIGS[base]
+    if base.startswith("hybrid"):
+        return list(sets)
+    effect = HYBRID_EFFECT[base]
+    return sets + [f"hybrid.{e}={'true' if e == effect else 'false'}" for e in HYBRID_EFFECTS]
+
+
+PATH_CONFIG = "gi_1"  # the configuration flown along the camera path (PATH_VARIANTS: accumulated, denoised)
+PATH_CHECKS = 4  # frames of the path compared with their converged image (the last one among them)
+PATH_VARIANTS = {"restart": ["accumulate=true", "reproject=false"], "reproject": ["accumulate=true", "reproject=true"],
+                 "svgf": ["accumulate=false", "denoise=svgf"]}
