@@ -152,17 +152,24 @@ def run_bench(args) -> int:
     sweep = Sweep(executor, loaded, configs, quality_configs, denoised,
                   {**settings, "exposure": float(opts.get("exposure")), "path_frames": path_frames}, progress,
                   out / "images", on_scene, keep)
+    t0 = time.perf_counter()
     try:
         sweep.run()
     finally:
         executor.close()
+    summary = sweep.summary(time.perf_counter() - t0)
     rows = [r for spec, _ in loaded for r in results[spec]]
     if cluster:
         machine = _cluster_machine(sweep, executor, cluster, rows)
-    write_results(out, _document(machine, settings, scene_info, rows, args.budget_ms, True))
+    doc = _document(machine, settings, scene_info, rows, args.budget_ms, True)
+    doc["sweep"] = summary
+    write_results(out, doc)
     from app.report import write_report
 
     write_report(out, json.loads((out / "results.json").read_text()), html=False)
+    if cluster and summary["units"]:
+        print(f"bench: {summary['units']} units in {summary['wall_s']:.0f} s on {summary['workers']} workers "
+              f"({sum(summary['worker_s'].values()):.0f} s of worker time, {100 * summary['utilisation']:.0f} % busy)")
     print(f"bench: {len(rows)} runs over {len(scene_info)} scene(s) -> {out}/results.json, results.csv, report.md")
     return 0
 

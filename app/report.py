@@ -61,8 +61,20 @@ def technique_tables(doc: dict) -> list[tuple[str, list[str], list[list[str]]]]:
     return tables
 
 
+def machine_keys(doc: dict) -> dict[str, str]:
+    """Each kind of machine that measured rows as M1, M2, ... where there was more than one
+    (bench --cluster), most rows first; {} otherwise."""
+    counts: dict[str, int] = {}
+    for r in doc["results"]:
+        kind = (r.get("measured_on") or {}).get("kind", "?")
+        counts[kind] = counts.get(kind, 0) + 1
+    if len(counts) < 2:
+        return {}
+    return {kind: f"M{i + 1}" for i, kind in enumerate(sorted(counts, key=lambda k: -counts[k]))}
+
+
 def breakdown_rows(doc: dict) -> list[list[str]]:
-    rows = []
+    rows, keys = [], machine_keys(doc)
     for r in doc["results"]:
         if r["accumulate"]:
             continue
@@ -71,7 +83,8 @@ def breakdown_rows(doc: dict) -> list[list[str]]:
         rows.append([r["scene"], r["config"], f"{r['frame_ms']['mean']:.1f}", f"{r['frame_ms']['median']:.1f}",
                      f"{r['frame_ms']['p5']:.1f}–{r['frame_ms']['p95']:.1f}", f"{r['mrays_per_s']:.2f}",
                      f"{r['gpu_ms']:.2f}" if timed else "–", f"{r['host_overhead_ms']:.2f}" if timed else "–",
-                     f"{r['transfer_ms']:.1f}", parts])
+                     f"{r['transfer_ms']:.1f}", parts] + ([keys[(r.get("measured_on") or {}).get("kind", "?")]]
+                                                         if keys else []))
     return rows
 
 
@@ -254,7 +267,9 @@ def cluster_section(doc: dict):
     for r in doc["results"]:
         on = r.get("measured_on") or {}
         by_kind.setdefault(on.get("kind", "?"), []).append(r)
-    rows = [[kind, str(len(rs)), ", ".join(sorted({r["measured_on"].get("host", "?") for r in rs}))]
+    keys = machine_keys(doc)
+    rows = [[(f"{keys[kind]}: " if keys else "") + kind, str(len(rs)),
+             ", ".join(sorted({(r.get("measured_on") or {}).get("host", "?") for r in rs}))]
             for kind, rs in sorted(by_kind.items(), key=lambda kv: -len(kv[1]))]
     return text, ["machine (kind)", "rows measured", "hosts"], rows
 
@@ -285,7 +300,7 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
         sections.append((title, header, rows))
         md += [f"## {title}", ""] + _table(header, rows) + [""]
     bh = ["scene", "config", "mean ms", "median ms", "p5–p95 ms", "Mrays/s", "GPU ms", "host beyond GPU ms",
-          "transfers ms", "per pass (ms)"]
+          "transfers ms", "per pass (ms)"] + (["machine"] if machine_keys(doc) else [])
     md += ["## Per-pass time breakdown", ""] + _table(bh, breakdown_rows(doc)) + [""]
     qrows = quality_rows(doc)
     qh = ["scene", "config", "FLIP 1 frame", "FLIP accumulated", "PSNR 1 frame", "PSNR accumulated",

@@ -14,6 +14,8 @@ import numpy as np
 from app.bench_configs import DENOISE_FRAMES
 from app.quality import mean_bias, mean_flip, psnr, rmse, to_display
 
+BATCHES_PER_WORKER = 4
+
 
 class ReferenceRounds:
     """The reference path tracer in doubling rounds: after each round the mean of the first half
@@ -113,7 +115,10 @@ class SceneWork:
         self.forward_by_kind: dict[str, float] = {}
         self.images: dict[str, tuple] = {}  # quality config -> (single, accumulated)
         self.scored: dict[str, dict] = {}  # quality config -> its figures
-        self.reference = ReferenceRounds(sweep.ref_frames, sweep.ref_noise, sweep.exposure, sweep.executor.parallelism)
+        # a round's frames in more batches than workers where there are several: a worker busy with
+        # another unit does not hold the round back
+        split = sweep.executor.parallelism * (BATCHES_PER_WORKER if sweep.executor.parallelism > 1 else 1)
+        self.reference = ReferenceRounds(sweep.ref_frames, sweep.ref_noise, sweep.exposure, split)
         self.info: dict = {}
         self.open = 0  # units submitted and not yet back
         self.timed_back = 0
@@ -144,6 +149,15 @@ class Sweep:
         self.scenes = [SceneWork(spec, scene.name, self) for spec, scene in scenes]
         self.keep = keep or (lambda work: None)  # a kept scene's record, or None to measure it
         self.machines: dict[str, dict] = {}  # kind label -> machine_info of the workers that came back
+        self.busy: dict[str, float] = {}  # seconds of worker time by unit kind
+        self.units_back = 0
+
+    def summary(self, wall_s: float) -> dict:
+        """Units run, worker time by kind, and how busy the executor's workers were."""
+        busy = sum(self.busy.values())
+        return {"units": self.units_back, "workers": self.executor.parallelism, "wall_s": wall_s,
+                "worker_s": dict(self.busy), "utilisation": busy / (wall_s * self.executor.parallelism)
+                if wall_s > 0 else None}
 
     def run(self) -> None:
         from app.image_io import write_png
@@ -172,6 +186,8 @@ class Sweep:
 
     def _back(self, work: SceneWork, unit: dict, result: dict) -> None:
         kind, who = unit["kind"], result["worker"]
+        self.busy[kind] = self.busy.get(kind, 0.0) + result.get("seconds", 0.0)
+        self.units_back += 1
         self.machines.setdefault(who["kind"], who["machine"])
         if not work.info:
             work.info = {"tracer": who["tracer"]}

@@ -78,6 +78,7 @@ class Worker:
     def run(self, unit: dict, threads: int | None = None) -> dict:
         from app import measure
 
+        t0 = time.perf_counter()
         spec, kind, st = unit["scene"], unit["kind"], self.settings
         scene, renderer, camera, build_s = self.renderer(spec)
         if threads:
@@ -102,6 +103,7 @@ class Worker:
                                                max(st["reference_frames"] // 4, 4), base)
         else:
             raise ValueError(f"unknown unit {kind!r}")
+        out["seconds"] = time.perf_counter() - t0  # the unit's time on its worker, its renderer's build included
         return out
 
     def release(self) -> None:

@@ -177,6 +177,18 @@ def test_a_quick_study_on_a_local_cluster_gives_the_single_process_figures(clust
     r = _study(tmp_path, "--cluster", cluster)
     assert r.returncode == 0, r.stderr[-2000:]
     _same_figures(single, tmp_path)
+    # rows from two kinds of machine: the report keys them M1, M2 and says which measured each row
+    from app.report import write_report
+
+    doc = json.loads((tmp_path / "results.json").read_text())
+    for row in doc["results"][1::2]:
+        row["measured_on"] = {**row["measured_on"], "kind": "another machine", "host": "elsewhere"}
+    write_report(tmp_path, doc, html=True)
+    md = (tmp_path / "report.md").read_text()
+    assert "| M2: another machine |" in md and "elsewhere" in md
+    breakdown = md[md.index("## Per-pass time breakdown"):].split("\n\n")[1]
+    assert breakdown.splitlines()[0].endswith("| machine |") and "| M2 |" in breakdown and "| M1 |" in breakdown
+    assert "M2: another machine" in (tmp_path / "report.html").read_text()
 
 
 @needs_ray
