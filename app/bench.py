@@ -4,6 +4,8 @@ quality against the converged reference path tracer (what the study judged by ey
 Timing: warm-up frames, then timed frames of the technique's own pass at --size.
 Quality: at --quality-size, the forward renderer with that one effect ray traced (the hybrid
 pass), one frame (noise) and accumulated (bias), against the reference path tracer.
+The measurements are units of work (app/sweep.py) run in this process or, with --cluster, as
+Ray tasks over a cluster (app/cluster.py).
 """
 from __future__ import annotations
 
@@ -113,9 +115,9 @@ def run_bench(args) -> int:
         from app.sweep import LocalExecutor
         from app.sweep_work import Worker
 
-        worker = Worker(worker_settings, scenes=dict(loaded))
+        worker = Worker(worker_settings, scenes=dict(loaded), keep=1)
         executor = LocalExecutor(worker)
-        machine = machine_info(worker._context())
+        machine = machine_info(worker.context())
     # resumable (rtlab study): each scene's rows are kept as soon as it is measured, and a run with the
     # same settings and configurations takes them instead of measuring the scene again
     resume = getattr(args, "resume", False)

@@ -26,19 +26,20 @@ from app.machine import machine_info, machine_label
 from app.options import Options
 from app.renderer import Renderer
 
-KEEP_SCENES = 2  # renderers kept per worker (a BVH and the scene's GPU copy each)
+KEEP_SCENES = 2  # renderers a cluster's worker keeps (a BVH and the scene's GPU copy each)
 
 
 class Worker:
-    def __init__(self, settings: dict, scenes: dict | None = None, node: str = "local"):
-        """settings: the sweep's (app/sweep.py: Sweep.worker_settings); scenes: already loaded
-        scenes by spec (the bench's own process), others are opened here."""
-        self.settings, self.loaded, self.node = settings, dict(scenes or {}), node
+    def __init__(self, settings: dict, scenes: dict | None = None, node: str = "local", keep: int = KEEP_SCENES):
+        """settings: the bench's (app/bench.py: worker_settings); scenes: already loaded scenes by
+        spec (the bench's own process, which measures one scene at a time and keeps one
+        renderer), others are opened here."""
+        self.settings, self.loaded, self.node, self.keep = settings, dict(scenes or {}), node, keep
         self.ctx = None
         self.kept: OrderedDict[str, tuple] = OrderedDict()  # spec -> (scene, renderer, camera, info)
         self.machine = None
 
-    def _context(self):
+    def context(self):
         if self.ctx is None:
             self.ctx = create_headless_context()
             self.machine = machine_info(self.ctx)
@@ -52,7 +53,10 @@ class Worker:
             return scene, renderer, camera, None
         from app.loading import open_scene
 
-        ctx = self._context()
+        while self.kept and len(self.kept) >= self.keep:  # the least recently used goes before another is made
+            _, (_, old, _, _) = self.kept.popitem(last=False)
+            old.release()
+        ctx = self.context()
         check_frame_size(ctx, *self.settings["size"])
         scene = self.loaded.get(spec) or open_scene(spec)
         cam = self.settings.get("camera")
@@ -65,9 +69,6 @@ class Worker:
         build_s = time.perf_counter() - t0
         tracer = {"name": backend.name, "device": getattr(backend, "adapter", "CPU")}
         self.kept[spec] = (scene, renderer, camera, tracer)
-        while len(self.kept) > KEEP_SCENES:
-            _, (_, old, _, _) = self.kept.popitem(last=False)
-            old.release()
         return scene, renderer, camera, build_s
 
     def about(self, spec: str, build_s) -> dict:

@@ -108,13 +108,14 @@ needs_ray = pytest.mark.skipif(not _ray_available(), reason="Ray not installed (
 
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
-    """`ray start --head` with 2 CPUs on this machine (its own process group, stopped after)."""
+    """`ray start --head` on this machine with 2 CPUs and 2 GPUs (Ray only counts GPUs: here the
+    GPU tasks run on lavapipe), in its own process group, stopped after."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     temp = tmp_path_factory.mktemp("ray")
     head = subprocess.Popen([sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block", "--num-cpus",
-                             "2", "--num-gpus", "0", "--port", str(port), "--include-dashboard=false",
+                             "2", "--num-gpus", "2", "--port", str(port), "--include-dashboard=false",
                              "--disable-usage-stats", f"--temp-dir={temp}"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     address = f"127.0.0.1:{port}"
@@ -134,11 +135,12 @@ def cluster(tmp_path_factory):
             os.killpg(head.pid, signal.SIGKILL)
 
 
-STUDY = ["arcade", "--configs", "forward,ao_1,gi_1,gi_1+svgf,shadows_one"]
+STUDY = ["arcade", "--configs", "forward,ao_1,gi_1,gi_1+svgf,shadows_one", "--set", "tracer=embree"]
+GPU_STUDY = ["arcade", "--configs", "forward,ao_1,shadows_one", "--set", "tracer=vulkan"]
 
 
-def _study(out, *extra, background=False):
-    cmd = [sys.executable, "-m", "app.cli", "study", "--quick", *STUDY, "--out", str(out), *extra]
+def _study(out, *extra, background=False, study=STUDY):
+    cmd = [sys.executable, "-m", "app.cli", "study", "--quick", *study, "--out", str(out), *extra]
     if background:
         return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     return subprocess.run(cmd, capture_output=True, text=True, timeout=900)
@@ -211,6 +213,26 @@ def test_a_study_survives_a_worker_killed_mid_run(cluster, single, tmp_path):
     assert killed is not None, "no unit was seen running"
     assert run.returncode == 0, err[-2000:]
     _same_figures(single, tmp_path)
+
+
+@needs_ray
+def test_gpu_tasks_take_one_gpu_each(cluster, tmp_path):
+    """tracer=vulkan on a cluster with GPUs: every unit a task on one of them (lavapipe here),
+    two at once, with the single process's figures."""
+    alone = _study(tmp_path / "alone", study=GPU_STUDY)
+    assert alone.returncode == 0, alone.stderr[-2000:]
+    r = _study(tmp_path / "cluster", "--cluster", cluster, study=GPU_STUDY)
+    assert r.returncode == 0, r.stderr[-2000:]
+    doc = json.loads((tmp_path / "cluster" / "results.json").read_text())
+    c = doc["machine"]["cluster"]
+    assert c["gpus"] == 2 and c["tasks"] == "one GPU each" and doc["sweep"]["workers"] == 2
+    assert {r["measured_on"]["device"] for r in doc["results"]} == {doc["tracer"]["device"]}
+    assert doc["tracer"]["name"] == "vulkan" and doc["tracer"]["device"] != "CPU"  # lavapipe: "llvmpipe (LLVM ..)"
+    base = json.loads((tmp_path / "alone" / "results.json").read_text())
+    ia = {r["config"]: r for r in base["results"]}
+    for row in doc["results"]:
+        if row.get("quality"):
+            assert row["quality"] == pytest.approx(ia[row["config"]]["quality"], abs=1e-5), row["config"]
 
 
 def test_cluster_errors_are_one_line(tmp_path):
