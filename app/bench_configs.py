@@ -4,6 +4,7 @@ path's configuration)."""
 from __future__ import annotations
 
 from core.errors import UserError
+from rt.effects import EFFECTS
 from rt.hybrid import EFFECTS as HYBRID_EFFECTS
 
 # name: (pass, options); ray-traced ones also run as NAME+acc with accumulation on, and the
@@ -68,3 +69,33 @@ PATH_CONFIG = "gi_1"  # the configuration flown along the camera path (PATH_VARI
 PATH_CHECKS = 4  # frames of the path compared with their converged image (the last one among them)
 PATH_VARIANTS = {"restart": ["accumulate=true", "reproject=false"], "reproject": ["accumulate=true", "reproject=true"],
                  "svgf": ["accumulate=false", "denoise=svgf"]}
+
+
+# a frame's split by what its passes do (profiler entries by name; a ray-traced effect's pass is
+# its rays and their shading together: `bench --perf` tells the trace from the rest)
+SPLIT = {"G-buffer": ("gbuffer", "gbuffer_pack", "gbuffer_readback", "gbuffer_unpack", "gbuffer_share",
+                      "gbuffer_rt"),
+         "raster lighting": ("shadow_maps", "ssao", "forward_lighting"),
+         "denoise": ("svgf", "oidn"),
+         "finish": ("accumulation", "reproject", "tonemap", "fxaa", "display", "present", "upload", "device_readback",
+                    "share", "counters")}
+
+
+def frame_split(passes_ms: dict, frame_ms: float, kinds: dict | None = None) -> dict:
+    """A frame's time by part: the G-buffer, the ray-traced effects, the raster lighting, the
+    denoiser, the finish (accumulation, tone mapping, display and the copies that show it),
+    other passes, and the host's time beyond them all (Python, waits; negative where GL's
+    timed work overlapped the host's). On the CPU (Embree) every pass's time counts; with a
+    device backend (its passes timed on the device as NAME_gpu) the parts are GPU time, GL's
+    and the device's, and the host's recording, copies and waits are what lies beyond them."""
+    part_of = {name: part for part, names in SPLIT.items() for name in names}
+    part_of["primary"] = "G-buffer"  # a device backend's primary hits
+    device = any(name.endswith("_gpu") for name in passes_ms)
+    out = {"G-buffer": 0.0, "ray traced": 0.0, "raster lighting": 0.0, "denoise": 0.0, "finish": 0.0, "other": 0.0}
+    for name, ms in passes_ms.items():
+        if device and (kinds or {}).get(name) != "gpu":
+            continue
+        name = name.removesuffix("_gpu")
+        out["ray traced" if name in EFFECTS else part_of.get(name, "other")] += ms
+    out["host beyond"] = frame_ms - sum(out.values())
+    return out

@@ -16,6 +16,7 @@ from app.bench_configs import (
     PATH_VARIANTS,
     TRANSFERS,
     config_options,
+    frame_split,
     quality_options,
 )
 from app.camera import Camera
@@ -74,7 +75,9 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
             "passes_ms": {k: float(np.mean(v)) for k, v in passes.items()},
             "pass_kind": {k: kind.get(k, "cpu") for k in passes},
             "transfer_ms": float(sum(np.mean(passes[k]) for k in TRANSFERS if k in passes)),
-            "gpu_ms": gpu_ms, "host_overhead_ms": ft["mean"] - gpu_ms}
+            "gpu_ms": gpu_ms, "host_overhead_ms": ft["mean"] - gpu_ms,
+            "split_ms": frame_split({k: float(np.mean(v)) for k, v in passes.items()}, ft["mean"],
+                                    {k: kind.get(k, "cpu") for k in passes})}
 
 
 def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int,

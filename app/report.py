@@ -88,6 +88,31 @@ def breakdown_rows(doc: dict) -> list[list[str]]:
     return rows
 
 
+SPLIT_HEADER = ["scene", "config", "frame ms", "G-buffer", "ray traced", "raster lighting", "denoise", "finish",
+                "other", "host beyond"]
+SPLIT_TEXT = ("Each frame's mean time by part (ms; with a GPU ray-tracing backend, GPU time): the G-buffer "
+              "(raster, packing and copies, or primary rays), the "
+              "ray-traced effects (their rays and shading; `rtlab bench --perf` times the rays alone), the raster "
+              "lighting (shadow maps, SSAO, forward), the denoiser, the finish (accumulation, tone mapping, display "
+              "and the copies that show it), and the host's time beyond them (Python, waits; negative where timed "
+              "GL work overlapped the host's).")
+
+
+def split_rows(doc: dict) -> list[list[str]]:
+    """The frame split of each timed configuration (bench_configs.frame_split; made here from
+    the passes' times for results that predate it)."""
+    from app.bench_configs import frame_split
+
+    rows = []
+    for r in doc["results"]:
+        if r["accumulate"]:
+            continue
+        split = r.get("split_ms") or frame_split(r["passes_ms"], r["frame_ms"]["mean"], r.get("pass_kind"))
+        rows.append([r["scene"], r["config"], f"{r['frame_ms']['mean']:.1f}"]
+                    + [f"{split.get(k, 0.0):.1f}" for k in SPLIT_HEADER[3:]])
+    return rows
+
+
 def quality_rows(doc: dict) -> list[list[str]]:
     rows = []
     for r in doc["results"]:
@@ -302,6 +327,7 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     bh = ["scene", "config", "mean ms", "median ms", "p5–p95 ms", "Mrays/s", "GPU ms", "host beyond GPU ms",
           "transfers ms", "per pass (ms)"] + (["machine"] if machine_keys(doc) else [])
     md += ["## Per-pass time breakdown", ""] + _table(bh, breakdown_rows(doc)) + [""]
+    md += ["## Frame split", "", SPLIT_TEXT, ""] + _table(SPLIT_HEADER, split_rows(doc)) + [""]
     qrows = quality_rows(doc)
     qh = ["scene", "config", "FLIP 1 frame", "FLIP accumulated", "PSNR 1 frame", "PSNR accumulated",
           "gain vs forward"]
@@ -370,6 +396,7 @@ def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, ga
     for title, header, rows in sections:
         parts += [f"<h2>{html.escape(title)}</h2>", _html_table(header, rows)]
     parts += ["<h2>Per-pass time breakdown</h2>", _html_table(bh, brows)]
+    parts += ["<h2>Frame split</h2>", f"<p>{html.escape(SPLIT_TEXT)}</p>", _html_table(SPLIT_HEADER, split_rows(doc))]
     if qrows:
         parts += ["<h2>Quality against the reference</h2>", _html_table(qh, qrows),
                   "<h2>Recommendations</h2>", f"<p>Rule: {html.escape(rule_text(budget_ms))}</p>",

@@ -31,6 +31,9 @@ def test_quick_bench_writes_every_configuration(quick_bench):
             assert 0 < f["p5"] <= f["median"] <= f["p95"] and f["mean"] > 0 and r["fps"] > 0
             assert r["relative_cost"] > 0
             assert r["passes_ms"] and all(v >= 0 for v in r["passes_ms"].values())
+            split = r["split_ms"]  # every pass has its part of the frame, and the parts add up to it
+            assert split["other"] == 0 and sum(split.values()) == pytest.approx(f["mean"])
+            assert (split["ray traced"] > 0) == (r["pass"] != "forward") and split["G-buffer"] > 0
             if r["pass"] != "forward":
                 assert r["rays_per_frame"] > 0 and r["mrays_per_s"] > 0
             if r["config"].partition("+")[2] in DENOISERS:  # measured as denoised, not as their pass
@@ -48,6 +51,7 @@ def test_quick_bench_writes_every_configuration(quick_bench):
     with open(quick_bench / "results.csv") as f:
         assert len(list(csv.DictReader(f))) == 2 * len(ALL_CONFIGS)
     assert "Recommendations" in (quick_bench / "report.md").read_text()
+    assert "## Frame split" in (quick_bench / "report.md").read_text()
 
 
 def test_report_renders(quick_bench):
@@ -187,3 +191,20 @@ def test_the_camera_path_is_flown_accumulated_and_denoised(quick_bench):
             assert len(p[key]["flips"]) == len(p["checked_frames"]) and 0 < p[key]["flip_mean"] < 1, key
             assert p[key]["flicker"] is not None and p[key]["flicker"] >= 0, key
     assert "FLIP svgf" in (quick_bench / "report.md").read_text()
+
+
+def test_the_frame_split_of_a_device_backend_counts_gpu_time():
+    """With passes timed on the device (NAME_gpu) the parts are GPU time (the host's recording,
+    copies and waits are what lies beyond, the bench's host_overhead_ms); on the CPU every
+    pass counts."""
+    from app.bench_configs import frame_split
+
+    passes = {"gbuffer": 10.0, "gbuffer_share": 0.5, "ao": 0.3, "share": 20.0, "ao_gpu": 6.0, "svgf": 4.0,
+              "tonemap": 0.2}
+    kinds = {"gbuffer": "gpu", "ao_gpu": "gpu", "svgf": "gpu", "tonemap": "gpu"}
+    split = frame_split(passes, 30.0, kinds)
+    assert split == pytest.approx({"G-buffer": 10.0, "ray traced": 6.0, "raster lighting": 0.0, "denoise": 4.0,
+                                   "finish": 0.2, "other": 0.0, "host beyond": 9.8})
+    cpu = frame_split({"gbuffer_rt": 5.0, "gi": 12.0, "upload": 0.5, "tonemap": 0.5, "mystery": 1.0}, 20.0)
+    assert cpu["G-buffer"] == 5.0 and cpu["ray traced"] == 12.0 and cpu["finish"] == 1.0 and cpu["other"] == 1.0
+    assert cpu["host beyond"] == pytest.approx(1.0)
