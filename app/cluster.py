@@ -55,7 +55,9 @@ def run_unit(settings: dict, unit: dict, threads: int | None, adapter: bool):
         if _WORKER is not None:
             _WORKER.release()
         _WORKER = Worker(settings, node=ray.get_runtime_context().get_node_id())
-    return _WORKER.run(unit, threads)
+    out = _WORKER.run(unit, threads)
+    out["worker"]["gpus"] = [str(g) for g in ray.get_gpu_ids()]  # the GPUs Ray gave this task
+    return out
 
 
 class RayExecutor:
@@ -82,7 +84,10 @@ class RayExecutor:
         self.several_gpus = any(n["Resources"].get("GPU", 0) > 1 for n in nodes)
         self.parallelism = int(gpus) if self.gpu else max(1, sum(node_cpus) // self.task_cpus)
         self.settings = ray.put(settings)
-        self.task = ray.remote(run_unit)
+        # max_calls=0: a worker process serves unit after unit (Ray's default for a GPU task is a new
+        # process each, which would import slangpy, open the device and build the scene every time);
+        # Ray keeps a reused worker on the GPU it first gave it
+        self.task = ray.remote(max_calls=0)(run_unit)
         self.waiting: dict = {}  # object ref -> key
 
     def submit(self, key, unit: dict, node: str | None = None) -> None:

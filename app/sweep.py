@@ -219,7 +219,7 @@ class Sweep:
         config = unit["config"]
         row.update(scene=work.name, tracer=who["tracer"]["name"],
                    measured_on={"host": who["host"], "node": who["node"], "kind": who["kind"],
-                                "device": who["tracer"]["device"]})
+                                "device": who["tracer"]["device"], "gpus": who.get("gpus", [])})
         if unit.get("forward_only"):  # the forward baseline again, on a kind of machine that had none
             work.forward_by_kind[who["kind"]] = row["frame_ms"]["mean"]
         else:

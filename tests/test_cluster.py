@@ -227,6 +227,7 @@ def test_gpu_tasks_take_one_gpu_each(cluster, tmp_path):
     c = doc["machine"]["cluster"]
     assert c["gpus"] == 2 and c["tasks"] == "one GPU each" and doc["sweep"]["workers"] == 2
     assert {r["measured_on"]["device"] for r in doc["results"]} == {doc["tracer"]["device"]}
+    assert {tuple(r["measured_on"]["gpus"]) for r in doc["results"]} <= {("0",), ("1",)}
     assert doc["tracer"]["name"] == "vulkan" and doc["tracer"]["device"] != "CPU"  # lavapipe: "llvmpipe (LLVM ..)"
     base = json.loads((tmp_path / "alone" / "results.json").read_text())
     ia = {r["config"]: r for r in base["results"]}
