@@ -80,7 +80,7 @@ def measure_pass(renderer: Renderer, camera: Camera, size, pass_name: str, frame
         pass_ms.append(renderer.profiler.frame[pass_name])
         batches = record_frame(renderer, camera, size, pass_name)  # the same work again, its rays kept
         raw_s.append(tracer.replay(batches))
-        rays.append(sum(b[1].shape[0] for b in batches))
+        rays.append(sum(b[1].shape[0] for b in batches if b[0] != "primary"))  # gbuffer=rt's are the G-buffer's
         for k in ("gbuffer", "gbuffer_readback", "gbuffer_unpack", "upload"):
             other.setdefault(k, []).append(renderer.profiler.frame.get(k, 0.0))
     # the fastest frame of each: a shared host's other tenants slow single frames (H100 host, one
@@ -213,7 +213,9 @@ def run_perf(args) -> int:
     print(f"perf on {label}")
     for spec in scenes:
         scene = load_scene(spec)
-        renderer = Renderer(ctx, scene, Options())
+        opts = Options()
+        opts.apply(options)  # --set (e.g. gbuffer=rt: the passes' frames trace their own camera rays)
+        renderer = Renderer(ctx, scene, opts)
         camera = Camera.from_view(scene.default_view(), scene.diagonal)
         set_threads(renderer, cores)
         for size in sizes:
@@ -229,6 +231,8 @@ def run_perf(args) -> int:
             # (the second of two frames each: the first may compile kernels; the H100 host's
             # first gbuffer=rt frame of a run measured 2.5-3.5 s)
             opts = renderer.options
+            before = opts.get("gbuffer")
+            opts.set("gbuffer", "raster")
             for _ in range(2):
                 renderer.render(camera, *size, "albedo")
             raster_ms = renderer.profiler.frame.get("gbuffer", 0.0)
@@ -236,9 +240,16 @@ def run_perf(args) -> int:
             for _ in range(2):
                 renderer.render(camera, *size, "shadows")
             rt_ms = renderer.profiler.frame.get("gbuffer_rt", 0.0)
-            opts.set("gbuffer", "raster")
+            # the camera rays alone, as the G-buffer traces them (packets): how much of it is tracing
+            tracer = renderer.ray_tracing().tracer
+            primary = [b for b in record_frame(renderer, camera, size, "shadows") if b[0] == "primary"]
+            raw_ms = min(tracer.replay_primary(primary) for _ in range(2)) * 1e3
+            opts.set("gbuffer", before)
             doc["gbuffer"].append({"scene": scene.name, "size": list(size), "raster_gpu_ms": raster_ms,
-                                   "rt_ms": rt_ms})
+                                   "rt_ms": rt_ms, "rt_raw_trace_ms": raw_ms,
+                                   "rt_efficiency": raw_ms / rt_ms if rt_ms > 0 else None})
+            print(f"  {scene.name:8} {size[0]}x{size[1]} G-buffer    raster {raster_ms:.1f} ms, primary rays "
+                  f"{rt_ms:.1f} ms (raw packet trace {raw_ms:.1f} ms)", flush=True)
         # thread scaling at the largest size (small frames are dominated by fixed costs)
         size = max(sizes, key=lambda s: s[0] * s[1])
         doc["scaling"] += measure_scaling(renderer, camera, size, threads, rounds)

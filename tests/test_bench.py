@@ -133,6 +133,9 @@ def test_perf_measures_every_pass_thread_count_and_bvh(tmp_path):
         assert row["rounds"] == 2 and row["pass_ms"] > 0 and row["raw_trace_ms"] > 0
         assert row["speedup"] == 1.0 if row["threads"] == 1 else row["speedup"] > 0
     assert [b["scene"] for b in doc["bvh"]] == ["park:1", "park:2"] and all(b["build_s"] > 0 for b in doc["bvh"])
+    for g in doc["gbuffer"]:  # both G-buffers, and the camera rays alone as the ray-traced one traces them
+        assert g["raster_gpu_ms"] > 0 and g["rt_ms"] > 0 and g["rt_raw_trace_ms"] > 0
+        assert g["rt_efficiency"] == g["rt_raw_trace_ms"] / g["rt_ms"]
     bad = subprocess.run([sys.executable, "-m", "app.cli", "bench", "--perf", "--quick", "--perf-rounds", "0", "--out",
                           str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert bad.returncode != 0 and "--perf-rounds" in bad.stderr and "Traceback" not in bad.stderr

@@ -49,3 +49,22 @@ def test_packets_pass_the_alpha_filter(tmp_path):
     hits = _same_hits(tracer, cam, 64, 64)
     leaf = data.material_ids[hits.prim[hits.hit]] == 1
     assert 0 < leaf.mean() < 1  # the leaf's solid half is hit, its cut half seen through
+
+
+def test_recorded_camera_rays_are_the_g_buffers_and_replay_as_packets():
+    """bench --perf: camera rays traced as an image are logged as the G-buffer's ("primary",
+    with the image's size), left out of a pass's replay, and replayed alone as packets."""
+    from rt.backends import ray_log
+
+    scene = build_builtin("arcade")
+    tracer = EmbreeTracer(scene.positions, scene.indices, threads=2)
+    camera = Camera.from_view(scene.default_view(), scene.diagonal)
+    o, d = _rays(camera, 37, 23)
+    tracer.recording = log = ray_log(16)
+    tracer.intersect_image(o, d, 37, 23)
+    tracer.recording = None
+    batches = log.all_batches()
+    assert [(b[0], b[1].shape[0], b[4]) for b in batches] == [("primary", 37 * 23, (37, 23))]
+    assert tracer.replay(batches) >= 0 and tracer.replay_primary(batches) > 0
+    assert tracer.replay_primary([]) >= 0
+    tracer.close()

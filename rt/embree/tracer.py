@@ -88,10 +88,12 @@ class RayLog:
     def __init__(self, capacity: int):
         self.rays = np.empty((max(int(capacity), 1), embree.LOG_WIDTH), np.float32)
         self.count = np.zeros(1, np.int64)  # rays the kernels logged (atomically)
-        self.batches: list = []  # (kind, origins, directions, tmax) from the Python-level calls
+        # (kind, origins, directions, tmax) from the Python-level calls; camera rays ("primary")
+        # also with their image's (width, height)
+        self.batches: list = []
 
-    def add(self, kind: str, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> None:
-        self.batches.append((kind, o.copy(), d.copy(), tmax.copy()))
+    def add(self, kind: str, o: np.ndarray, d: np.ndarray, tmax: np.ndarray, shape: tuple | None = None) -> None:
+        self.batches.append((kind, o.copy(), d.copy(), tmax.copy()) + ((shape,) if shape is not None else ()))
 
     @property
     def overflowed(self) -> bool:
@@ -174,8 +176,8 @@ class EmbreeTracer(Tracer):
         n = o.shape[0]
         t, prim = np.empty(n, np.float32), np.empty(n, np.int32)
         u, v = np.empty(n, np.float32), np.empty(n, np.float32)
-        if self.recording is not None:
-            self.recording.add("intersect", o, d, _distances(INF, n))
+        if self.recording is not None:  # the G-buffer's rays: replay_primary, not a pass's replay
+            self.recording.add("primary", o, d, _distances(INF, n), (width, height))
         if n:
             tiles = ((width + 3) // 4) * ((height + 3) // 4)
             self.run_parallel(embree.intersect_tiles, tiles, self.handle, o, d, width, height, t, prim, u, v)
@@ -309,6 +311,19 @@ class EmbreeTracer(Tracer):
         t0 = time.perf_counter()
         for fn, *args in runs:
             self.run_parallel(fn, args[0].shape[0], self.handle, *args)
+        return time.perf_counter() - t0
+
+    def replay_primary(self, batches: list) -> float:
+        """Trace recorded camera rays again, Embree alone, as the G-buffer traces them (4 x 4
+        pixel packets, intersect_image); returns the seconds spent."""
+        runs = []
+        for _, o, d, _, (width, height) in (b for b in batches if b[0] == "primary"):
+            n = o.shape[0]
+            runs.append((((width + 3) // 4) * ((height + 3) // 4), o, d, width, height, np.empty(n, np.float32),
+                         np.empty(n, np.int32), np.empty(n, np.float32), np.empty(n, np.float32)))
+        t0 = time.perf_counter()
+        for tiles, *args in runs:
+            self.run_parallel(embree.intersect_tiles, tiles, self.handle, *args)
         return time.perf_counter() - t0
 
     def set_threads(self, threads: int) -> None:
