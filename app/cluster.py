@@ -47,10 +47,10 @@ def run_unit(settings: dict, unit: dict, threads: int | None, adapter: bool):
 
     from app.sweep_work import Worker
 
-    if adapter:  # several GPUs on the node: the Vulkan adapter of the one Ray gave this task
-        ids = ray.get_gpu_ids()
-        if ids:
-            os.environ["RTLAB_ADAPTER"] = str(int(ids[0]))
+    if adapter:  # several GPUs on the node: the Vulkan adapter of the one Ray gave this task (by its
+        ids = ray.get_gpu_ids()  # index, where Ray numbers them; not where they are UUIDs)
+        if ids and str(ids[0]).isdigit():
+            os.environ["RTLAB_ADAPTER"] = str(ids[0])
     if _WORKER is None or _WORKER.settings != settings:
         if _WORKER is not None:
             _WORKER.release()
