@@ -145,15 +145,16 @@ def run_bench(args) -> int:
         if resume:
             _keep_scene(out / "scenes" / f"{_file_name(w.spec)}.json",
                         {**kept_as, "rows": rows, "info": scene_info[w.name]})
-        so_far = [r for s, _ in loaded for r in results.get(s, [])]  # the rows so far, as each scene is done
+
+    def on_unit(sweep):  # results.json as units come back: every row so far, "complete": false
         write_results(out, _document(machine or _cluster_machine(sweep, executor, cluster), settings, scene_info,
-                                     so_far, args.budget_ms, False))
+                                     sweep.rows_so_far(results), args.budget_ms, False))
 
     from app.sweep import Sweep
 
     sweep = Sweep(executor, loaded, configs, quality_configs, denoised,
                   {**settings, "exposure": float(opts.get("exposure")), "path_frames": path_frames}, progress,
-                  out / "images", on_scene, keep)
+                  out / "images", on_scene, keep, on_unit)
     t0 = time.perf_counter()
     try:
         sweep.run()

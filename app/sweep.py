@@ -141,13 +141,14 @@ class Sweep:
     """settings: the bench's (sizes, frames, options); scenes: [(spec, Scene)]."""
 
     def __init__(self, executor, scenes, configs, quality_configs, denoised, settings: dict, progress, images,
-                 on_scene, keep=None):
+                 on_scene, keep=None, on_unit=None):
         self.executor, self.progress, self.images, self.on_scene = executor, progress, images, on_scene
         self.configs, self.quality_configs, self.denoised = configs, quality_configs, denoised
         self.ref_frames, self.ref_noise = settings["reference_frames"], settings["reference_noise"]
         self.exposure, self.path_frames = settings["exposure"], settings["path_frames"]
         self.scenes = [SceneWork(spec, scene.name, self) for spec, scene in scenes]
         self.keep = keep or (lambda work: None)  # a kept scene's record, or None to measure it
+        self.on_unit = on_unit or (lambda sweep: None)  # after each unit is back (results so far)
         self.machines: dict[str, dict] = {}  # kind label -> machine_info of the workers that came back
         self.busy: dict[str, float] = {}  # seconds of worker time by unit kind
         self.units_back = 0
@@ -179,6 +180,14 @@ class Sweep:
                 (work, unit), result = self.executor.next()
                 work.open -= 1
                 self._back(work, unit, result)
+
+    def rows_so_far(self, finished: dict) -> list[dict]:
+        """Every scene's rows in order: a finished (or kept) scene's from `finished` by spec, the
+        others' timed rows back so far (no quality yet)."""
+        out = []
+        for work in self.scenes:
+            out += finished.get(work.spec) or [work.rows[c] for c in self.configs if c in work.rows]
+        return out
 
     def _submit(self, work: SceneWork, unit: dict, node: str | None = None) -> None:
         work.open += 1
@@ -213,6 +222,7 @@ class Sweep:
             self.progress.update(1, f"{work.name} camera path")
         if work.open == 0:
             self._finish(work)
+        self.on_unit(self)
 
     def _timed(self, work: SceneWork, unit: dict, result: dict, who: dict) -> None:
         row = result["row"]

@@ -80,9 +80,19 @@ def test_costs_compare_rows_with_the_forward_frame_of_their_kind_of_machine():
     ex = FakeExecutor(lambda unit: "a" if unit["config"] == "forward" else "b")
     got = []
     settings = {"reference_frames": 16, "reference_noise": 0.01, "exposure": 1.0, "path_frames": 0}
+    finished, seen = {}, []
+
+    def on_scene(w, rows, info):
+        got.append(rows)
+        finished[w.spec] = rows
+
     sweep = Sweep(ex, [("arcade", SimpleNamespace(name="arcade"))], ["forward", "ao_1"], [], [], settings,
-                  SimpleNamespace(update=lambda *a: None), None, lambda w, rows, info: got.append(rows))
+                  SimpleNamespace(update=lambda *a: None), None, on_scene,
+                  on_unit=lambda sw: seen.append([r["config"] for r in sw.rows_so_far(finished)]))
     sweep.run()
+    # the rows so far after each unit (what results.json holds meanwhile): forward, then ao_1, then
+    # the forward frame again on ao_1's kind of machine, which finishes the scene
+    assert seen == [["forward"], ["forward", "ao_1"], ["forward", "ao_1"]]
     again = [(u, n) for u, n in ex.units if u.get("forward_only")]
     assert again == [({"kind": "time", "scene": "arcade", "config": "forward", "forward_only": True}, "b")]
     rows = {r["config"]: r for r in got[0]}
