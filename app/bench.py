@@ -37,7 +37,7 @@ from app.camera import Camera, parse_camera
 from app.headless import parse_size
 from app.image_io import atomic_path, write_text
 from app.loading import open_scene
-from app.machine import machine_info
+from app.machine import machine_info, source_commit
 from app.measure import measure_path, path_cameras, render_image, stats, time_config  # noqa: E402,F401
 from app.options import Options
 from core.errors import UserError
@@ -196,7 +196,8 @@ def _document(machine, settings, scene_info, rows, budget_ms, complete: bool) ->
     tracer = next(iter(scene_info.values()))["tracer"] if scene_info else None
     recs = {s: recommend([r for r in rows if r["scene"] == s], budget_ms)
             for s in scene_info} if complete and settings["quality"] else {}
-    return {"machine": machine, "created": time.strftime("%Y-%m-%d %H:%M:%S"), "settings": settings,
+    return {"machine": machine, "commit": source_commit(), "created": time.strftime("%Y-%m-%d %H:%M:%S"),
+            "settings": settings,
             "tracer": tracer, "complete": complete, "scenes": scene_info, "results": rows,
             "recommendations": recs}
 

@@ -70,6 +70,14 @@ def write_png(path, rgb: np.ndarray) -> None:
         Image.fromarray(np.ascontiguousarray(rgb, np.uint8)).save(tmp, format="PNG")
 
 
+def read_png(path) -> np.ndarray:
+    """An 8-bit RGB image from a PNG file (as write_png wrote it)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        return np.asarray(im.convert("RGB"))
+
+
 def write_npy(path, array: np.ndarray) -> None:
     check_output(path, ".npy", "raw images")
     with atomic_path(path) as tmp:

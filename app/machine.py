@@ -42,3 +42,20 @@ def machine_label(info: dict, tracer: dict | None = None) -> str:
     gl = info.get("gl_renderer") or "?"
     rt = f", ray tracing: {tracer['name']} ({tracer['device']})" if tracer else ""
     return f"{info.get('cpu', '?')}, {info.get('cores', '?')} cores, GL: {gl}{rt}"
+
+
+def source_commit() -> str | None:
+    """The commit of this rtlab checkout ('+' where its tracked files differ from it), or None
+    outside a git checkout: results name the code that made them."""
+    import subprocess
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    try:
+        head = subprocess.run(["git", "-C", root, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                              timeout=10)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "-C", root, "diff", "--quiet", "HEAD", "--"], capture_output=True, timeout=10)
+        return head.stdout.strip() + ("+" if dirty.returncode == 1 else "")
+    except (OSError, subprocess.SubprocessError):
+        return None

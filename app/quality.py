@@ -36,11 +36,22 @@ def mean_bias(reference: np.ndarray, test: np.ndarray) -> float:
     return float((linear(test) - ref) / ref) if ref > 0 else 0.0
 
 
-def mean_flip(reference: np.ndarray, test: np.ndarray) -> float:
-    """Mean LDR FLIP of two sRGB uint8 images (0 = identical, 1 = maximal difference)."""
+def _flip(reference: np.ndarray, test: np.ndarray, magma: bool):
     import flip_evaluator as flip
 
-    ref = np.ascontiguousarray(reference.astype(np.float32) / 255.0)
-    tst = np.ascontiguousarray(test.astype(np.float32) / 255.0)
-    _, value, _ = flip.evaluate(ref, tst, "LDR", applyMagma=False)
-    return float(value)
+    ref = np.ascontiguousarray(reference[..., :3].astype(np.float32) / 255.0)
+    tst = np.ascontiguousarray(test[..., :3].astype(np.float32) / 255.0)
+    image, value, _ = flip.evaluate(ref, tst, "LDR", applyMagma=magma)
+    return image, float(value)
+
+
+def mean_flip(reference: np.ndarray, test: np.ndarray) -> float:
+    """Mean LDR FLIP of two sRGB uint8 images (0 = identical, 1 = maximal difference)."""
+    return _flip(reference, test, False)[1]
+
+
+def flip_map(reference: np.ndarray, test: np.ndarray) -> tuple[float, np.ndarray]:
+    """Mean LDR FLIP of two sRGB uint8 images and the per-pixel error as FLIP's magma map
+    (black = no visible difference, yellow = the largest), 8-bit RGB."""
+    image, value = _flip(reference, test, True)
+    return value, np.round(np.clip(image, 0.0, 1.0) * 255.0).astype(np.uint8)

@@ -9,6 +9,17 @@ STUDY = {
     "park": ("Emerald Square (sparse outdoor)", "RT shadows (reflections only with water)"),
     "temple": ("Sun Temple (sparse indoor)", "RT ambient occlusion"),
 }
+# the same conclusions as sets of effects (EFFECT_NAME's keys), optional ones left out
+STUDY_EFFECTS = {"arcade": {"ao"}, "street": {"reflections", "gi"}, "cafe": {"shadows", "ao"}, "park": {"shadows"},
+                 "temple": {"ao"}}
+# the study's average frame rates (section 4, 1920x1080, 60 s each; Falcor on an NVIDIA Ampere GPU): Arcade,
+# Bistro Exterior, Bistro Interior, Emerald Square, Sun Temple; None where the study has N/A
+_FPS = {"forward": (762, 258, None, 90, 410), "reflections": (962, 490, 620, 148, 614),
+        "shadows_all": (817, 487, None, 135, 125), "shadows_one": (947, 486, None, 135, 755),
+        "gi_1": (491, 171, None, 78, 331), "gi_4": (168, 55, None, 22, 115), "gi_shadows": (490, 165, None, 61, 316),
+        "ao_1": (705, 399, 505, 163, 595), "ao_4": (506, 250, 313, 103, 389)}
+STUDY_FPS = {cfg: dict(zip(("arcade", "street", "cafe", "park", "temple"), fps, strict=True))
+             for cfg, fps in _FPS.items()}
 EFFECT_OF = {"reflections": "reflections", "shadows_all": "shadows", "shadows_one": "shadows", "gi_1": "gi",
              "gi_4": "gi", "gi_shadows": "gi", "ao_1": "ao", "ao_4": "ao"}
 EFFECT_NAME = {"reflections": "RT reflections", "shadows": "RT shadows", "gi": "RT global illumination",

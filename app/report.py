@@ -2,7 +2,6 @@
 per-scene recommendations from a bench folder's results.json (report.md + report.html)."""
 from __future__ import annotations
 
-import base64
 import html
 import json
 from pathlib import Path
@@ -10,6 +9,7 @@ from pathlib import Path
 from app.image_io import atomic_path, write_text
 from app.machine import machine_label
 from app.recommend import STUDY, recommend, rule_text
+from app.report_answer import ANSWER_HEADER, STUDY_HEADER, STUDY_TEXT, answer_row, answer_sections, scene_line
 from core.errors import UserError
 
 TECHNIQUES = [
@@ -304,8 +304,9 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     label = machine_label(doc["machine"], doc.get("tracer"))
     s = doc["settings"]
     when = f"{s['frames']} frames" if s.get("frames") else f"{s.get('seconds')} s"
+    commit = doc.get("commit") or "not recorded"
     md = ["# rtlab benchmark report", "",
-          f"Machine: **{label}**. Created {doc.get('created', '?')}.", "",
+          f"Machine: **{label}**. Commit: {commit}. Created {doc.get('created', '?')}.", "",
           f"Timing: {s['size'][0]}×{s['size'][1]}, {s['warmup']} warm-up frames, then {when} per configuration; "
           "each technique's own pass (as the study measured). "
           + (f"Quality: {s['quality_size'][0]}×{s['quality_size'][1]}, the forward renderer with that effect ray "
@@ -320,6 +321,10 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
                + "; ".join(f"`rtlab {m}`" for m in doc["merged_from"]) + ".", ""]
     if doc.get("note"):  # what someone who merged or edited the results says about them
         md += [str(doc["note"]), ""]
+    intro = [line for line in md[1:] if line and not line.startswith("|")]  # machine, protocol, notes
+    answer = answer_sections(doc, folder, budget_ms)  # the answer first: per scene, then against the study
+    if answer:
+        md += answer["markdown"]
     sections = []
     for title, header, rows in technique_tables(doc):
         sections.append((title, header, rows))
@@ -370,12 +375,13 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
                    " · ".join(c for c, _ in items), ""]
     write_text(folder / "report.md", "\n".join(md))
     if html:
-        write_html(folder, doc, sections, bh, breakdown_rows(doc), qh, qrows, budget_ms, plots, gal, label)
+        write_html(folder, doc, sections, bh, breakdown_rows(doc), qh, qrows, budget_ms, plots, gal, label,
+                   intro, answer)
 
 
-def _img(folder: Path, rel: str) -> str:
-    data = base64.b64encode((folder / rel).read_bytes()).decode()
-    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(rel)}">'
+def _img(rel: str, alt: str = "") -> str:
+    """An image beside the report, linked (the report stays small; open it from its folder)."""
+    return f'<img src="{html.escape(rel)}" alt="{html.escape(alt or rel)}" loading="lazy">'
 
 
 def _html_table(header, rows) -> str:
@@ -384,17 +390,33 @@ def _html_table(header, rows) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, gal, label) -> None:
-    parts = ["<!doctype html><meta charset='utf-8'><title>rtlab report</title>",
+def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, gal, label, intro, answer) -> None:
+    parts = ["<!doctype html><html lang='en'><meta charset='utf-8'><title>rtlab report</title>",
              "<style>body{font-family:sans-serif;margin:2em;max-width:1400px}table{border-collapse:collapse;"
-             "margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}th{background:#eee}"
-             "img{max-width:100%;margin:2px}.gal img{width:220px}</style>",
-             "<h1>rtlab benchmark report</h1>", f"<p>Machine: <b>{html.escape(label)}</b></p>"]
+             "margin:1em 0;display:block;overflow-x:auto}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}"
+             "th{background:#eee}img{max-width:100%;margin:2px}.gal img{width:220px}.strip img{width:300px}"
+             "figure{display:inline-block;margin:4px}figcaption{font-size:12px}</style>",
+             "<h1>rtlab benchmark report</h1>"]
+    parts += [f"<p>{html.escape(line.replace('**', '').replace('`', ''))}</p>" for line in intro]
     cluster = cluster_section(doc)
     if cluster:
-        parts += [f"<p>{html.escape(cluster[0])}</p>", _html_table(cluster[1], cluster[2])]
-    for title, header, rows in sections:
-        parts += [f"<h2>{html.escape(title)}</h2>", _html_table(header, rows)]
+        parts.append(_html_table(cluster[1], cluster[2]))
+    if answer:
+        parts += ["<h2>The answer</h2>", _html_table(ANSWER_HEADER, [answer_row(a) for a in answer["answers"]])]
+        for a in answer["answers"]:
+            parts += [f"<h3>{html.escape(a['scene'])}: {html.escape(a['rec']['text'])}</h3>",
+                      f"<p>{html.escape(scene_line(a))}</p>",
+                      "<ul>" + "".join(f"<li>{html.escape(r)}</li>" for r in a["reasons"]) + "</ul>"]
+            if a["plot"]:
+                parts.append(_img(a["plot"], f"{a['scene']}: cost vs quality"))
+            parts.append("<div class='strip'>" + "".join(
+                f"<figure>{_img(p, c)}<figcaption>{html.escape(c)}</figcaption></figure>" for c, p in a["images"])
+                + "</div>")
+        if answer["study_rows"]:
+            parts += ["<h2>Against the study</h2>", f"<p>{html.escape(STUDY_TEXT)}</p>",
+                      _html_table(STUDY_HEADER, answer["study_rows"])]
+    for title, header_row, rows in sections:
+        parts += [f"<h2>{html.escape(title)}</h2>", _html_table(header_row, rows)]
     parts += ["<h2>Per-pass time breakdown</h2>", _html_table(bh, brows)]
     parts += ["<h2>Frame split</h2>", f"<p>{html.escape(SPLIT_TEXT)}</p>", _html_table(SPLIT_HEADER, split_rows(doc))]
     if qrows:
@@ -402,15 +424,19 @@ def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, ga
                   "<h2>Recommendations</h2>", f"<p>Rule: {html.escape(rule_text(budget_ms))}</p>",
                   _html_table(["scene", "measured recommendation", "why", "study archetype", "study's recommendation"],
                               recommendation_rows(doc, budget_ms))]
-    parts += ["<h2>Plots</h2>"] + [_img(folder, p) for _, p in plots]
+    drows = denoise_rows(doc)
+    if drows:
+        parts += ["<h2>Denoisers</h2>", _html_table(["scene", "config", "denoiser ms", "FLIP 1 raw frame",
+                                                      "FLIP raw frames", "FLIP denoised", "bias denoised",
+                                                      "denoised ≤ raw"], drows)]
+    parts += ["<h2>Plots</h2>"] + [_img(p, t) for t, p in plots]
     if gal:
         parts.append("<h2>Gallery</h2>")
         for scene, items in gal:
             parts.append(f"<h3>{html.escape(scene)}</h3><div class='gal'>")
-            parts += [f"<figure style='display:inline-block'>{_img(folder, p)}<figcaption>{html.escape(c)}"
-                      "</figcaption></figure>" for c, p in items]
+            parts += [f"<figure>{_img(p, c)}<figcaption>{html.escape(c)}</figcaption></figure>" for c, p in items]
             parts.append("</div>")
-    write_text(folder / "report.html", "\n".join(parts))
+    write_text(folder / "report.html", "\n".join(parts) + "\n</html>\n")
 
 
 def run_report(args) -> int:

@@ -12,7 +12,7 @@ from collections import deque
 import numpy as np
 
 from app.bench_configs import DENOISE_FRAMES
-from app.quality import mean_bias, mean_flip, psnr, rmse, to_display
+from app.quality import flip_map, mean_bias, mean_flip, psnr, rmse, to_display
 
 BATCHES_PER_WORKER = 4
 
@@ -270,7 +270,10 @@ class Sweep:
         forward = work.images.get("forward")
         if forward is None:
             return
-        flip_fwd = work.info.setdefault("flip_forward", mean_flip(ref, forward[0]))
+        if "flip_forward" not in work.info:
+            work.info["flip_forward"], error_map = flip_map(ref, forward[0])
+            self.write_png(self.images / f"{work.name}_forward_flip.png", error_map)
+        flip_fwd = work.info["flip_forward"]
         for config, (single, acc) in list(work.images.items()):
             if config in work.scored:
                 continue
@@ -279,7 +282,9 @@ class Sweep:
                      "psnr_accumulated": psnr(ref, acc), "gain": 0.0}
                 self.progress.update(3, f"{work.name} forward quality")
             else:
-                q = {"flip_single": mean_flip(ref, single), "flip_accumulated": mean_flip(ref, acc),
+                flip_acc, error_map = flip_map(ref, acc)  # the map of the image written, for the report
+                self.write_png(self.images / f"{work.name}_{config}_flip.png", error_map)
+                q = {"flip_single": mean_flip(ref, single), "flip_accumulated": flip_acc,
                      "psnr_single": psnr(ref, single), "psnr_accumulated": psnr(ref, acc)}
                 q["gain"] = flip_fwd - q["flip_accumulated"]
                 self.progress.update(1, f"{work.name} {config} quality: FLIP {q['flip_accumulated']:.3f}")
@@ -293,7 +298,9 @@ class Sweep:
         for d in unit["denoisers"]:
             config, image = f"{name}+{d}", images[d]
             self.write_png(self.images / f"{work.name}_{config}.png", image)
-            rec = {"frames": DENOISE_FRAMES, "converged_frames": self.ref_frames, "flip": mean_flip(converged, image),
+            flip, error_map = flip_map(converged, image)
+            self.write_png(self.images / f"{work.name}_{config}_flip.png", error_map)
+            rec = {"frames": DENOISE_FRAMES, "converged_frames": self.ref_frames, "flip": flip,
                    "flip_raw_1": mean_flip(converged, raw[1]),
                    f"flip_raw_{DENOISE_FRAMES}": mean_flip(converged, raw[DENOISE_FRAMES]),
                    "bias": mean_bias(converged, image),

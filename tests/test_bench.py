@@ -63,7 +63,18 @@ def test_report_renders(quick_bench):
     for needle in ("Reflections: frames per second", "| fps | arcade | cafe |", "Per-pass time breakdown",
                    "study's recommendation", "RT ambient occlusion"):
         assert needle in md
-    assert page.count("data:image/png;base64,") >= 3 + 2 * 5  # plots + gallery, embedded
+    import re
+
+    sources = re.findall(r'<img src="([^"]+)"', page)  # linked beside the report, every one there
+    assert len(sources) >= 3 + 2 * 5 and "base64" not in page
+    assert all((quick_bench / src).stat().st_size > 100 for src in sources)
+    # the answer first: each scene's recommendation, its plot, its images and FLIP maps, then the tables
+    assert md.index("## The answer") < md.index("Reflections: frames per second")
+    assert page.index("<h2>The answer</h2>") < page.index("Reflections: frames per second")
+    for scene in ("arcade", "cafe"):
+        assert f"### {scene}: " in md and f"plot_answer_{scene}.png" in sources
+        assert f"images/{scene}_reference.png" in sources and f"images/{scene}_forward_flip.png" in sources
+    assert "## Against the study" in md and "| arcade | reflections | 962 |" in md
     for plot in ("plot_fps.png", "plot_cost_quality.png", "plot_rays_error.png"):
         assert (quick_bench / plot).stat().st_size > 1000
 
