@@ -9,6 +9,13 @@ from pathlib import Path
 from app.recommend import EFFECT_NAME, EFFECT_OF, MIN_GAIN, STUDY, STUDY_EFFECTS, STUDY_FPS, recommend
 
 
+def _cost(delta_ms: float) -> str:
+    """An effect's frame time against the forward baseline's, in words."""
+    if delta_ms < 0:  # the pass alone beats forward's frame (a compute GPU's slow GL, or a heavy raster)
+        return f"its frame {-delta_ms:.1f} ms shorter than forward's"
+    return f"for {delta_ms:.1f} ms a frame more than forward"
+
+
 def scene_answer(doc: dict, scene: str, budget_ms) -> dict:
     """What the report says about one scene: the pick, each effect's best candidate and why it
     was taken or left, and the study's verdict for the archetype."""
@@ -18,8 +25,8 @@ def scene_answer(doc: dict, scene: str, budget_ms) -> dict:
     reasons = []
     for c in rec["candidates"]:
         verb = "taken" if c["effect"] in chosen else "left out: over the frame-time budget"
-        reasons.append(f"{EFFECT_NAME[c['effect']]} ({c['config']}): {_gain(c['gain'])} for "
-                       f"{c['delta_ms']:+.1f} ms a frame against forward — {verb}")
+        reasons.append(f"{EFFECT_NAME[c['effect']]} ({c['config']}): {_gain(c['gain'])}, {_cost(c['delta_ms'])} "
+                       f"— {verb}")
     measured = {r["config"]: r for r in rows}
     for effect in EFFECT_NAME:
         if effect in {c["effect"] for c in rec["candidates"]}:

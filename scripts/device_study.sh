@@ -5,14 +5,16 @@
 # The study folder is study-device/ in the tree (untracked): a later call carries the scenes
 # measured before (study-device/scenes/*.json, put back here from the tar) and the study keeps them.
 # Into $OUT: one tar per scene (its kept record and its images shrunk to THUMB px wide, FLIP maps
-# included; the full-size images stay there), results.json and the log.
+# included; the full-size images stay there), results.json and the log. REFERENCE_FRAMES and CONFIGS
+# (a comma list) pass on to the study.
 set -uo pipefail
 OUT=${OUT:-out}; DIR=study-device; THUMB=${THUMB:-480}
 # the environment an earlier call on this (still warm) machine set up, else set it up now
 if [ -f /tmp/rtlab-env.sh ]; then source /tmp/rtlab-env.sh; else source scripts/device_env.sh; fi
 python3 -m app.cli devices > "$OUT/devices.txt" 2>&1
 timeout "${LIMIT:-480}" python3 -m app.cli study $SCENES --seconds "${SECONDS_PER_CONFIG:-5}" \
-    --set "tracer=${TRACER:-cuda}" --out "$DIR" > "$OUT/study.log" 2>&1
+    --set "tracer=${TRACER:-cuda}" --reference-frames "${REFERENCE_FRAMES:-4096}" ${CONFIGS:+--configs "$CONFIGS"} \
+    --out "$DIR" > "$OUT/study.log" 2>&1
 echo "study exit $?" >> "$OUT/study.log"
 cp "$DIR/results.json" "$OUT/" 2>/dev/null
 python3 - "$DIR" "$THUMB" <<'PY'
