@@ -26,7 +26,7 @@ def test_each_scene_says_what_it_takes_and_why_it_leaves_the_rest():
     a = scene_answer(_doc(), "arcade", None)
     assert a["rec"]["text"] == "RT global illumination" and a["chosen_effects"] == {"gi"}
     text = "\n".join(a["reasons"])
-    assert "gi_1): mean FLIP 0.150 closer to the reference than forward for -36.0 ms" in text
+    assert "gi_1): mean FLIP 0.150 closer to the reference than forward, its frame 36.0 ms shorter than forward's" in text
     assert "ao_1): mean FLIP 0.010 further from the reference than forward — left out: it takes" in text
     assert "reflections): mean FLIP 0.002 closer" in text and "less than the 0.005" in text
     assert agreement(a) == "differs: also RT global illumination; not RT ambient occlusion"
