@@ -375,8 +375,10 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
                    " · ".join(c for c, _ in items), ""]
     write_text(folder / "report.md", "\n".join(md))
     if html:
-        write_html(folder, doc, sections, bh, breakdown_rows(doc), qh, qrows, budget_ms, plots, gal, label,
-                   intro, answer)
+        tables = {"breakdown": (bh, breakdown_rows(doc)), "quality": (qh, qrows),
+                  "denoise": (dh, drows) if drows else None, "path": (ph, prows) if prows else None}
+        write_html(folder, doc, {"intro": intro, "answer": answer, "sections": sections, "tables": tables,
+                                 "budget_ms": budget_ms, "plots": plots, "gallery": gal})
 
 
 def _img(rel: str, alt: str = "") -> str:
@@ -390,7 +392,12 @@ def _html_table(header, rows) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, gal, label, intro, answer) -> None:
+def write_html(folder, doc, page: dict) -> None:
+    """report.html from what write_report built for report.md (page: intro lines, the answer,
+    the fps sections, the other tables as (header, rows), the budget, plots and gallery)."""
+    intro, answer, sections, tables = page["intro"], page["answer"], page["sections"], page["tables"]
+    budget_ms, plots, gal = page["budget_ms"], page["plots"], page["gallery"]
+    (bh, brows), (qh, qrows) = tables["breakdown"], tables["quality"]
     parts = ["<!doctype html><html lang='en'><meta charset='utf-8'><title>rtlab report</title>",
              "<style>body{font-family:sans-serif;margin:2em;max-width:1400px}table{border-collapse:collapse;"
              "margin:1em 0;display:block;overflow-x:auto}td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px}"
@@ -424,11 +431,10 @@ def write_html(folder, doc, sections, bh, brows, qh, qrows, budget_ms, plots, ga
                   "<h2>Recommendations</h2>", f"<p>Rule: {html.escape(rule_text(budget_ms))}</p>",
                   _html_table(["scene", "measured recommendation", "why", "study archetype", "study's recommendation"],
                               recommendation_rows(doc, budget_ms))]
-    drows = denoise_rows(doc)
-    if drows:
-        parts += ["<h2>Denoisers</h2>", _html_table(["scene", "config", "denoiser ms", "FLIP 1 raw frame",
-                                                      "FLIP raw frames", "FLIP denoised", "bias denoised",
-                                                      "denoised ≤ raw"], drows)]
+    if tables["denoise"]:
+        parts += ["<h2>Denoisers</h2>", _html_table(*tables["denoise"])]
+    if tables["path"]:
+        parts += ["<h2>Camera path</h2>", _html_table(*tables["path"])]
     parts += ["<h2>Plots</h2>"] + [_img(p, t) for t, p in plots]
     if gal:
         parts.append("<h2>Gallery</h2>")

@@ -29,7 +29,7 @@ def compare(folder: Path, doc: dict, scene: str) -> Image.Image | None:
         tiles.append((caption, Image.open(folder / rel).convert("RGB")))
     if not tiles:
         return None
-    w = TILE; h = round(tiles[0][1].height * TILE / tiles[0][1].width)
+    w, h = TILE, round(tiles[0][1].height * TILE / tiles[0][1].width)
     out = Image.new("RGB", (w * len(tiles), h + BAR), "black")
     draw = ImageDraw.Draw(out)
     for i, (caption, im) in enumerate(tiles):

@@ -75,6 +75,8 @@ def test_report_renders(quick_bench):
         assert f"### {scene}: " in md and f"plot_answer_{scene}.png" in sources
         assert f"images/{scene}_reference.png" in sources and f"images/{scene}_forward_flip.png" in sources
     assert "## Against the study" in md and "| arcade | reflections | 962 |" in md
+    for title in ("Denoisers", "Camera path", "Frame split"):  # every table of the Markdown is in the HTML too
+        assert f"## {title}" in md and f"<h2>{title}</h2>" in page
     for plot in ("plot_fps.png", "plot_cost_quality.png", "plot_rays_error.png"):
         assert (quick_bench / plot).stat().st_size > 1000
 
