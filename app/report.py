@@ -6,10 +6,13 @@ import html
 import json
 from pathlib import Path
 
-from app.image_io import atomic_path, write_text
+from app.image_io import write_text
 from app.machine import machine_label
 from app.recommend import STUDY, recommend, rule_text
 from app.report_answer import ANSWER_HEADER, STUDY_HEADER, STUDY_TEXT, answer_row, answer_sections, scene_line
+from app.report_format import markdown_table as _table
+from app.report_format import plain_log_ticks as _plain_log_ticks
+from app.report_format import save_figure as _save
 from core.errors import UserError
 
 TECHNIQUES = [
@@ -34,12 +37,6 @@ def load_results(folder: Path) -> dict:
 
 def _index(doc: dict) -> dict:
     return {(r["scene"], r["config"]): r for r in doc["results"]}
-
-
-def _table(header: list[str], rows: list[list[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join(" --- " for _ in header) + "|"]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return out
 
 
 def technique_tables(doc: dict) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -248,22 +245,6 @@ def make_plots(doc: dict, folder: Path) -> list[tuple[str, str]]:
         plots.append(("rays per pixel vs error", _save(fig, folder / "plot_rays_error.png")))
         plt.close(fig)
     return plots
-
-
-def _plain_log_ticks(axis) -> None:
-    """A log axis labelled 20, 30, 50, 100, ... (not 2 x 10^1, overlapping at every minor tick)."""
-    import matplotlib.ticker
-
-    plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
-    axis.set_major_formatter(plain)
-    axis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(2.0, 3.0, 5.0)))
-    axis.set_minor_formatter(plain)
-
-
-def _save(fig, path: Path) -> str:
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    return path.name
 
 
 def gallery(doc: dict, folder: Path) -> list[tuple[str, list[tuple[str, str]]]]:

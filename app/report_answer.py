@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.recommend import EFFECT_NAME, EFFECT_OF, MIN_GAIN, STUDY, STUDY_EFFECTS, STUDY_FPS, recommend
+from app.report_format import markdown_table, plain_log_ticks, save_figure
 
 
 def _cost(delta_ms: float) -> str:
@@ -113,7 +114,6 @@ def scene_plot(doc: dict, folder: Path, scene: str, answer: dict) -> str | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from app.report import _plain_log_ticks, _save
 
     picks = {c["config"] for c in answer["rec"]["chosen"]}
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
@@ -125,13 +125,13 @@ def scene_plot(doc: dict, folder: Path, scene: str, answer: dict) -> str | None:
                    marker={"forward": "s", "picked": "*", "other": "o"}[kind], zorder=3)
         ax.annotate(r["config"], (x, y), fontsize=7, xytext=(3, 3), textcoords="offset points")
     ax.set_xscale("log")
-    _plain_log_ticks(ax.xaxis)
+    plain_log_ticks(ax.xaxis)
     ax.set_xlabel("frame time (ms, log)")
     ax.set_ylabel("mean FLIP vs reference")
     ax.set_title(f"{scene}: cost vs quality (square: forward, star: recommended)", fontsize=9)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    name = _save(fig, folder / f"plot_answer_{scene}.png")
+    name = save_figure(fig, folder / f"plot_answer_{scene}.png")
     plt.close(fig)
     return name
 
@@ -175,10 +175,9 @@ def answer_sections(doc: dict, folder: Path, budget_ms) -> dict | None:
     plot and images, the Markdown of it all, and the rows comparing with the study."""
     if not any(r.get("quality") for r in doc["results"]):
         return None
-    from app.report import _table
 
     answers = [scene_answer(doc, s, budget_ms) for s in doc["scenes"]]
-    md = ["## The answer", ""] + _table(ANSWER_HEADER, [answer_row(a) for a in answers]) + [""]
+    md = ["## The answer", ""] + markdown_table(ANSWER_HEADER, [answer_row(a) for a in answers]) + [""]
     for a in answers:
         a["plot"], a["images"] = scene_plot(doc, folder, a["scene"], a), strip(folder, a)
         md += [f"### {a['scene']}: {a['rec']['text']}", "", scene_line(a), ""]
@@ -189,7 +188,7 @@ def answer_sections(doc: dict, folder: Path, budget_ms) -> dict | None:
             md += [" ".join(f"![{c}]({p})" for c, p in a["images"]), "", " · ".join(c for c, _ in a["images"]), ""]
     srows = study_rows(doc)
     if srows:
-        md += ["## Against the study", "", STUDY_TEXT, ""] + _table(STUDY_HEADER, srows) + [""]
+        md += ["## Against the study", "", STUDY_TEXT, ""] + markdown_table(STUDY_HEADER, srows) + [""]
     return {"answers": answers, "markdown": md, "study_rows": srows}
 
 
