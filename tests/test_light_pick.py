@@ -133,8 +133,8 @@ def test_each_point_traces_towards_the_light_it_picked_divided_by_its_probabilit
     o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
                         np.zeros((n, 3), np.float32))
     idx = np.zeros(n, np.int32)
-    m = light_sampling.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide, np.float32(far),
-                                     weights, o, dirs, tmax, e, idx, rtcore.target(0), raygen.NOT_TRACED)
+    m = light_sampling.one_light_shadow_rays(G, 0, keys, dim, (analytic, emitters, guide), np.float32(far),
+                                             weights, (o, dirs, tmax, e, idx), rtcore.target(0), raygen.NOT_TRACED)
     ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters, guide, far)
     kept = [i for i, (k, direction, dist, light, _) in enumerate(ref) if direction @ N[i] > 0 and light.max() > 0]
     assert list(idx[:m]) == kept
@@ -177,9 +177,9 @@ def test_a_single_light_is_sampled_as_when_picked_among_others():
         o, dirs, tmax, e = (np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros(n, np.float32),
                             np.zeros((n, 3), np.float32))
         idx = np.zeros(n, np.int32)
-        m = light_sampling.one_light_shadow_rays(G, 0, keys, dim, analytic, emitters, guide,
-                                         np.float32(far), weights, o, dirs, tmax, e, idx, rtcore.target(0),
-                                         raygen.NOT_TRACED)
+        m = light_sampling.one_light_shadow_rays(G, 0, keys, dim, (analytic, emitters, guide), np.float32(far),
+                                                 weights, (o, dirs, tmax, e, idx), rtcore.target(0),
+                                                 raygen.NOT_TRACED)
         with np.errstate(invalid="ignore"):  # 0 / 0 where the light has no weight: those carry nothing
             ref = reference_one_light(P.astype(np.float64), N.astype(np.float64), keys, dim, analytic, emitters,
                                       guide, far)

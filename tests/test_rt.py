@@ -232,9 +232,9 @@ def test_generators_read_a_chunk_of_the_gbuffer_rows(gl, name):
         for x, y in zip(a, b, strict=True):
             assert np.array_equal(x[:m], y[:m])
     a, b = scratch.rays("t.a", hi - lo), scratch.rays("t.b", hi - lo)
-    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, np.float32(1.0), *a, rtcore.target(0),
+    m = raygen.hemisphere_live(gb.soa, lo, keys, 0, np.float32(1.0), a, rtcore.target(0),
                                raygen.NOT_TRACED)
-    assert m == raygen.hemisphere_live(*own, keys, 0, np.float32(1.0), *b, rtcore.target(0),
+    assert m == raygen.hemisphere_live(*own, keys, 0, np.float32(1.0), b, rtcore.target(0),
                                        raygen.NOT_TRACED) and m > 500
     for x, y in zip(a, b, strict=True):
         assert np.array_equal(x[:m], y[:m])
@@ -302,7 +302,7 @@ def test_generators_tracing_inline_add_what_tracing_after_adds(gl, name):
     cases = [(lambda sc, acc, k=k: light_rays(data.lights, k, G, keys, 0, o, d, t, e, idx, sc, acc), True)
              for k in range(data.lights.count)]
     cases.append((lambda sc, acc: one_light_rays(data.lights, G, keys, 0, o, d, t, e, idx, sc, acc), True))
-    cases.append((lambda sc, acc: raygen.hemisphere_live(*G, keys, 0, np.float32(0.7), o, d, t, idx,
+    cases.append((lambda sc, acc: raygen.hemisphere_live(*G, keys, 0, np.float32(0.7), (o, d, t, idx),
                                                          rtcore.target(sc), acc), False))
     for make, light in cases:
         m = make(0, raygen.NOT_TRACED)

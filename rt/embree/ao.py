@@ -29,7 +29,7 @@ def ao_frame(counter, bounds, scene, frame, base, rays, radius, grey):
         escaped = np.zeros(b1 - b0, np.float32)
         o, d, t, _, idx = light_sampling.no_rays()  # traced as they are made: none written out
         for r in range(rays):  # sample, trace, count: two random numbers per ray
-            traced += raygen.hemisphere_live(frame.points, b0, keys, 2 * r, radius, o, d, t, idx,
+            traced += raygen.hemisphere_live(frame.points, b0, keys, 2 * r, radius, (o, d, t, idx),
                                              frame.target, escaped.reshape((b1 - b0, 1)))
         gather.write_ao(frame.out, frame.aux, pix[b0:b1], escaped, rays, frame.albedo[b0:b1], grey)
         gather.fill_uncovered(frame.out, frame.aux, np.float32(1.0), pix, b0, b1, frame.view_dir, frame.env)

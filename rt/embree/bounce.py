@@ -17,11 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.embree import rtcore as embree
 from rt.embree.brdf import INV_PI, ONE, ZERO, alpha, f0, ggx_terms, visible_normal, visible_normal_density
 from rt.embree.jit import njit
 from rt.embree.kernels import uniform
-from rt.embree.raygen import CARRIED, DIR, RUN, _emit, cosine_about
+from rt.embree.raygen import CARRIED, DIR, RUN, _emit, cosine_about, tracing
 from rt.layout import GX, GY, GZ, NX, NY, NZ
 
 P_SPEC_MAX = np.float32(0.5)
@@ -83,16 +82,18 @@ def bounce_direction(nx, ny, nz, vx, vy, vz, a, p, ul, u0, u1):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def brdf_live(G, g0, keys, dim, lobe_dim, V, albedo, metallic, rough, tmax_value, origin, direction, tmax, idx,
-              tr, weights):
-    """hemisphere_live (raygen.py) with directions from the points' BRDF: point i (view V[i],
-    towards the viewer; material albedo[i], metallic[i], rough[i]) gets its ray packed where it
-    leaves above both its shading and its true surface, and weights[i] = (w_r, w_g, w_b,
-    w_mean) (bounce_weights; zero for a point whose ray is not packed). Returns the count."""
+def brdf_live(G, g0, keys, dim, lobe_dim, surf, tmax_value, packed, tr, weights):
+    """hemisphere_live (raygen.py) with directions from the points' BRDF: point i (surf: its
+    view V[i], towards the viewer, and material albedo[i], metallic[i], rough[i]) gets its ray
+    packed into packed (origin, direction, tmax, index) where it leaves above both its shading
+    and its true surface, and weights[i] = (w_r, w_g, w_b, w_mean) (bounce_weights; zero for a
+    point whose ray is not packed). Returns the count."""
+    V, albedo, metallic, rough = surf
+    origin, direction, tmax, idx = packed
+    packed = (origin, direction, tmax, origin, idx)  # no light carried: _pack never writes it
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
-    buf, b = embree.ray_buffer()
-    words = buf.view(np.uint32)
+    trace = tracing(tr)
     m = 0
     for s0 in range(0, n, RUN):
         s1 = min(s0 + RUN, n)
@@ -115,6 +116,5 @@ def brdf_live(G, g0, keys, dim, lobe_dim, V, albedo, metallic, rough, tmax_value
                 weights[i, 0], weights[i, 1], weights[i, 2], weights[i, 3] = wr, wg, wb, wm
             else:
                 weights[i, 0], weights[i, 1], weights[i, 2], weights[i, 3] = ZERO, ZERO, ZERO, ZERO
-        m = _emit(G, g0, s0, s1 - s0, blk, m, tmax_value, origin, direction, tmax, origin, idx, tr, buf, words, b,
-                  weights, False)
+        m = _emit(G, g0, s0, s1 - s0, blk, m, tmax_value, packed, trace, weights, False)
     return m

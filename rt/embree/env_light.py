@@ -15,10 +15,8 @@ import math
 import numpy as np
 
 from rt.embree import brdf, light_sampling, raygen
-from rt.embree import rtcore as embree
 from rt.embree.jit import njit
 from rt.embree.kernels import environment_rgb, environment_terms, equirect_uv, uniform
-from rt.layout import GX, GY, GZ, NX, NY, NZ
 
 F = np.float32
 ZERO, ONE = F(0.0), F(1.0)
@@ -85,8 +83,14 @@ def lobe_share(ggx, acc, i, base, metallic, nx, ny, nz):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0,
-              diffuse, dx, dy, dz, dd, er, eg, eb, nb):
+def _env_step(pts, keys, dim, sky, far, acc, surf, b0, rays, nb):
+    """A step's environment samples (from the map with probability MAP_SHARE where there is one,
+    else the BRDF's lobes; one-sample MIS density) into rays (raygen.step_rays), from the points
+    pts (raygen.step_points). sky: (environment_terms, texels, the map's distribution, its
+    shift); surf: the points' (albedo, metallic, diffuse-only mask) from row b0."""
+    nx, ny, nz = pts[3], pts[4], pts[5]
+    terms, texels, dist, shift = sky
+    albedo, metallic, diffuse = surf
     cdf, cells_u, cells_v = dist
     masked = diffuse.shape[0] > 0
     share = MAP_SHARE if cells_u > 0 else ZERO
@@ -112,8 +116,7 @@ def _env_step(nx, ny, nz, gx, gy, gz, keys, dim, terms, texels, dist, shift, far
                                                                             z)
         lr, lg, lb = environment_rgb(x, y, z, terms, texels)
         inv = ONE / density if density > ZERO else ZERO
-        light_sampling._light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, lr * inv, lg * inv, lb * inv, dx, dy, dz, dd,
-                                  er, eg, eb)
+        light_sampling._light_ray(j, pts, x, y, z, far, lr * inv, lg * inv, lb * inv, rays)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
@@ -147,18 +150,16 @@ def env_rays(G, g0, keys, dim, env, dist, far, tr, acc, albedo, metallic, diffus
     size = n if packed else 0
     origin, direction, tmax = np.empty((size, 3), F), np.empty((size, 3), F), np.empty(size, F)
     e, idx = np.empty((size, 3), F), np.empty(size, np.int32)
+    rays_out = (origin, direction, tmax, e, idx)
     blk = np.empty((7, raygen.RUN), F)
-    buf, b = embree.ray_buffer()
-    words = buf.view(np.uint32)
+    rays = raygen.step_rays(blk)
+    sky, surf = (terms, texels, dist, shift), (albedo, metallic, diffuse)
+    trace = raygen.tracing(tr)
     m = 0
     for b0 in range(0, n, raygen.RUN):
         b1 = min(b0 + raygen.RUN, n)
-        c0, c1 = g0 + b0, g0 + b1
-        _env_step(G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1], G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1],
-                  dim, terms, texels, dist, shift, far, acc, albedo, metallic, b0, diffuse, blk[0], blk[1], blk[2],
-                  blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        m = raygen._emit(G, g0, b0, b1 - b0, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc,
-                         True)
+        _env_step(raygen.step_points(G, g0 + b0, g0 + b1), keys[b0:b1], dim, sky, far, acc, surf, b0, rays, b1 - b0)
+        m = raygen._emit(G, g0, b0, b1 - b0, blk, m, far, rays_out, trace, acc, True)
     if packed:  # no scene to trace with (never in the shadows pass): the light unshadowed
         raygen.add_unblocked(acc, idx, direction, e, np.zeros(m, np.bool_), m, G, g0)
         m = 0

@@ -108,10 +108,11 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
         dim = 4 + 6 * (bounces * r + level)
         # ---- a ray from each point (cosine-weighted, or from its BRDF), and its closest hit ----
         if ggx:
-            m = bounce.brdf_live(G, g0, keys_a[:npts], dim, 4 + 9 * bounces * rays + bounces * r + level, V, m_alb,
-                                 m_metal, m_rough, scene.far, o, d, t, owner, embree.no_trace(frame.target), W)
+            m = bounce.brdf_live(G, g0, keys_a[:npts], dim, 4 + 9 * bounces * rays + bounces * r + level,
+                                 (V, m_alb, m_metal, m_rough), scene.far, (o, d, t, owner),
+                                 embree.no_trace(frame.target), W)
         else:
-            m = raygen.hemisphere_live(G, g0, keys_a[:npts], dim, scene.far, o, d, t, owner,
+            m = raygen.hemisphere_live(G, g0, keys_a[:npts], dim, scene.far, (o, d, t, owner),
                                        embree.no_trace(frame.target), raygen.NOT_TRACED)
         embree.trace_intersect(frame.target, o[:m], d[:m], tmax[:m], th, prim, u, v)
         level_light[:npts] = 0.0

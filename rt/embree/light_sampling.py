@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.embree import rtcore as embree
 from rt.embree.brdf import ALPHA, P_SPEC, SUM_EDVW, VIEW, lobes_density
 from rt.embree.jit import njit
 from rt.embree.kernels import uniform
@@ -31,6 +30,9 @@ from rt.embree.raygen import (
     cos_turns,
     mis_weight,
     sin_turns,
+    step_points,
+    step_rays,
+    tracing,
 )
 from rt.layout import (
     AREA_PDF,
@@ -40,21 +42,12 @@ from rt.layout import (
     EDGE2,
     EMISSION,
     FACE_NORMAL,
-    GX,
-    GY,
-    GZ,
     INV_PROB,
     IS_EMITTER,
     IS_SUN,
     LIGHT_ROW,
-    NX,
-    NY,
-    NZ,
     PICKED_ROWS,
     POSITION,
-    PX,
-    PY,
-    PZ,
     RADIANCE,
     SUN_COS,
     TO_SUN,
@@ -66,9 +59,12 @@ from rt.layout import (
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb):
-    """Step slot j: a shadow ray towards (x, y, z) at distance dist, with its unshadowed
-    irradiance x cos: zero where the light is below the shading or the true surface."""
+def _light_ray(j, pts, x, y, z, dist, ex, ey, ez, rays):
+    """Step slot j of rays (raygen.step_rays) from point j of pts (raygen.step_points): a shadow
+    ray towards (x, y, z) at distance dist, with its unshadowed irradiance x cos: zero where the
+    light is below the shading or the true surface."""
+    nx, ny, nz, gx, gy, gz = pts[3], pts[4], pts[5], pts[6], pts[7], pts[8]
+    dx, dy, dz, dd, er, eg, eb = rays
     cs = nx[j] * x + ny[j] * y + nz[j] * z
     cg = gx[j] * x + gy[j] * y + gz[j] * z
     cs = cs if (cs > ZERO and cg > ZERO) else ZERO
@@ -86,17 +82,18 @@ def _sun(ax, ay, az, cos_ang, u0, u1):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, far, dx, dy, dz, dd, er, eg, eb, nb):
+def _analytic_step(k, pts, keys, dim, analytic, far, rays, nb):
     """One loop per light type, so each stays short and branch-free; the light's parameters are
     read into locals first (loads from the light arrays inside the loop would have to be
     repeated, as the compiler cannot rule out that the stores change them, and do not vectorise)."""
+    px, py, pz = pts[0], pts[1], pts[2]
     kind, lpos, ldir, lrad, cos_out, spot_scale, cos_ang, lum = analytic
     r0, r1, r2 = lrad[k, 0], lrad[k, 1], lrad[k, 2]
     if kind[k] == 2:
         ax, ay, az, ca = -ldir[k, 0], -ldir[k, 1], -ldir[k, 2], cos_ang[k]
         for j in range(nb):
             x, y, z = _sun(ax, ay, az, ca, uniform(keys[j], dim), uniform(keys[j], dim + 1))
-            _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, far, r0, r1, r2, dx, dy, dz, dd, er, eg, eb)
+            _light_ray(j, pts, x, y, z, far, r0, r1, r2, rays)
         return
     qx, qy, qz, sx, sy, sz = lpos[k, 0], lpos[k, 1], lpos[k, 2], ldir[k, 0], ldir[k, 1], ldir[k, 2]
     co, ss = (cos_out[k], spot_scale[k]) if kind[k] == 1 else (F(-2.0), ONE)  # a point light's cone is never cut
@@ -107,26 +104,23 @@ def _analytic_step(k, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, analytic, f
         x, y, z = vx * inv, vy * inv, vz * inv
         t = min(max((-(x * sx + y * sy + z * sz) - co) * ss, ZERO), ONE)  # glTF's squared linear ramp
         att = inv * inv * t * t
-        _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, d2 * inv, r0 * att, r1 * att, r2 * att, dx, dy, dz, dd, er, eg,
-                   eb)
+        _light_ray(j, pts, x, y, z, d2 * inv, r0 * att, r1 * att, r2 * att, rays)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def analytic_shadow_rays(k, G, g0, keys, dim, analytic, far, origin, direction, tmax, e, idx, tr, acc):
+def analytic_shadow_rays(k, G, g0, keys, dim, analytic, far, packed, tr, acc):
     """Shadow rays towards analytic light k from every point of G (surface_soa rows), packed
-    (or traced into acc if tr has a scene); returns the count."""
+    into packed (origin, direction, tmax, light, index) (or traced into acc if tr has a scene);
+    returns the count."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
-    buf, b = embree.ray_buffer()
-    words = buf.view(np.uint32)
+    rays = step_rays(blk)
+    trace = tracing(tr)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        c0, c1 = g0 + b0, g0 + b1  # columns of G
-        _analytic_step(k, G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
-                       G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1], dim, analytic, far,
-                       blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], b1 - b0)
-        m = _emit(G, g0, b0, b1 - b0, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
+        _analytic_step(k, step_points(G, g0 + b0, g0 + b1), keys[b0:b1], dim, analytic, far, rays, b1 - b0)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, far, packed, trace, acc, True)
     return m
 
 
@@ -149,12 +143,14 @@ def _toward_emitter(S, j, u, w, px, py, pz):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, keep, alias, dx, dy, dz, dd, er, eg,
-                  eb, U, S, nb):
+def _cluster_step(lo, hi, pts, keys, dim, cluster, rays, U, S, nb):
     """Three loops: each point's numbers (vectorises: the hash is integer arithmetic), the
     triangle it picks (alias method: dependent loads) with its row copied into the columns of
     S, then the rays to points on those triangles, from unit-stride rows (vectorises; reading
-    rows[t] there would keep it scalar)."""
+    rows[t] there would keep it scalar). cluster: the emitter rows and their alias table (rows,
+    keep, alias)."""
+    px, py, pz = pts[0], pts[1], pts[2]
+    rows, keep, alias = cluster
     span = F(hi - lo)
     for j in range(nb):
         key = keys[j]
@@ -168,28 +164,24 @@ def _cluster_step(lo, hi, px, py, pz, nx, ny, nz, gx, gy, gz, keys, dim, rows, k
             S[c, j] = rows[t, c]
     for j in range(nb):
         x, y, z, d2, inv, g = _toward_emitter(S, j, U[1, j], U[2, j], px[j], py[j], pz[j])
-        _light_ray(j, nx, ny, nz, gx, gy, gz, x, y, z, d2 * inv * F(1.0 - 1e-4), S[EMISSION, j] * g,
-                   S[EMISSION + 1, j] * g, S[EMISSION + 2, j] * g, dx, dy, dz, dd, er, eg, eb)
+        _light_ray(j, pts, x, y, z, d2 * inv * F(1.0 - 1e-4), S[EMISSION, j] * g, S[EMISSION + 1, j] * g,
+                   S[EMISSION + 2, j] * g, rays)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def cluster_shadow_rays(lo, hi, G, g0, keys, dim, rows, keep, alias, origin, direction, tmax, e, idx, tr,
-                        acc):
-    """Shadow rays towards one emissive cluster (emitter rows lo:hi) from every point of G,
-    packed (or traced into acc if tr has a scene)."""
+def cluster_shadow_rays(lo, hi, G, g0, keys, dim, cluster, packed, tr, acc):
+    """Shadow rays towards one emissive cluster (emitter rows lo:hi of cluster: rows, keep,
+    alias) from every point of G, packed (or traced into acc if tr has a scene)."""
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
+    rays = step_rays(blk)
     U, S = np.empty((3, RUN), np.float32), np.empty((LIGHT_ROW, RUN), np.float32)
-    buf, b = embree.ray_buffer()
-    words = buf.view(np.uint32)
+    trace = tracing(tr)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        c0, c1 = g0 + b0, g0 + b1  # columns of G
-        _cluster_step(lo, hi, G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
-                      G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1], dim, rows, keep, alias,
-                      blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6], U, S, b1 - b0)
-        m = _emit(G, g0, b0, b1 - b0, blk, m, ZERO, origin, direction, tmax, e, idx, tr, buf, words, b, acc, True)
+        _cluster_step(lo, hi, step_points(G, g0 + b0, g0 + b1), keys[b0:b1], dim, cluster, rays, U, S, b1 - b0)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, ZERO, packed, trace, acc, True)
     return m
 
 
@@ -312,12 +304,15 @@ def _gather_picked(nb, na, pick, w, total, u1, table, emitters, S):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
+def _picked_rays(nb, S, u, pts, far, rays):
     """The shadow ray of every point towards the light it picked (rows S, _gather_picked),
     divided by the pick's probability: one branch-free loop over unit-stride rows that
     computes a sun's cone sample (_sun), a point or spot light's direction (its distance and
     glTF's squared linear ramp, as _analytic_step) and a point on an emitting triangle
-    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies."""
+    (Le x cos_light / d^2 / pdf_area, as _cluster_step), and keeps the one that applies.
+    u: the numbers that sample the light (u1, u2, u3: _draw_targets)."""
+    u1, u2, u3 = u
+    px, py, pz = pts[0], pts[1], pts[2]
     for b in range(nb):
         # a sun: a direction in its cone
         ax, ay, az = S[TO_SUN, b], S[TO_SUN + 1, b], S[TO_SUN + 2, b]
@@ -345,7 +340,7 @@ def _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx,
             dist = far if is_sun else d2 * r
             att *= inv
             ex, ey, ez = S[RADIANCE, b] * att, S[RADIANCE + 1, b] * att, S[RADIANCE + 2, b] * att
-        _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, dist, ex, ey, ez, dx, dy, dz, dd, er, eg, eb)
+        _light_ray(b, pts, x, y, z, dist, ex, ey, ez, rays)
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -362,7 +357,7 @@ def _emitter_density(fx, fy, fz, two_sided, area_pdf, pick, t, dx, dy, dz):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb, acc, b0):
+def _mis_weights(nb, S, pts, rays, acc, b0):
     """After _picked_rays, for multiple importance sampling (the reference path tracer's): each
     emitter's sample weighted by the power heuristic against cosine-weighted sampling of its
     direction, or with a GGX accumulator that has the lobe's share (acc[b0 + b, P_SPEC]: the
@@ -370,6 +365,8 @@ def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb, acc, b0)
     direction: _emitter_density, the point on the triangle found again from the direction and
     the triangle's plane. Its own loop, so that _picked_rays stays the branch-free one every
     pass runs."""
+    px, py, pz, nx, ny, nz = pts[0], pts[1], pts[2], pts[3], pts[4], pts[5]
+    dx, dy, dz, _, er, eg, eb = rays
     lobes = acc.shape[1] > P_SPEC
     for b in range(nb):
         if not S[IS_EMITTER, b] > ZERO or not S[INV_PROB, b] > ZERO:
@@ -393,7 +390,7 @@ def _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb, acc, b0)
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb):
+def _sun_rays(keys, dim, nb, row, pts, far, rays):
     """_picked_rays where the scene's one light is a sun (row: its LIGHT_ROW): the cone sample
     alone, from the same two numbers (dimensions dim + 1 and dim + 2), without the point
     light's and the emitter's maths or the third number that only they use."""
@@ -402,17 +399,19 @@ def _sun_rays(keys, dim, nb, row, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, e
     for b in range(nb):
         key = keys[b]
         x, y, z = _sun(ax, ay, az, cos_ang, uniform(key, dim + 1), uniform(key, dim + 2))
-        _light_ray(b, nx, ny, nz, gx, gy, gz, x, y, z, far, r0, r1, r2, dx, dy, dz, dd, er, eg, eb)
+        _light_ray(b, pts, x, y, z, far, r0, r1, r2, rays)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weights, origin, direction, tmax,
-                          e, idx, tr, acc, mis=False):
+def one_light_shadow_rays(G, g0, keys, dim, lights, far, weights, packed, tr, acc, mis=False):
     """One light per point of G (surface_soa rows), picked with probability ~ its estimated
     contribution there, sampled and divided by that probability (unbiased: accumulates to all
-    lights); packed (or traced into acc if tr has a scene). weights: (lights + SCRATCH_ROWS, BLOCK) scratch.
+    lights); packed into packed (origin, direction, tmax, light, index) (or traced into acc if tr
+    has a scene). lights: LightSet.kernel_args (analytic, emitters, guide, count).
+    weights: (lights + SCRATCH_ROWS, BLOCK) scratch.
     Each step is a loop over the block's points: weights, draws, the pick, the picked light's
     row gathered, then the rays (branch-free: it vectorises)."""
+    analytic, emitters, guide = lights[0], lights[1], lights[2]
     table = analytic_rows(analytic)
     na = table.shape[0]
     n_lights = weights.shape[0] - SCRATCH_ROWS
@@ -429,33 +428,31 @@ def one_light_shadow_rays(G, g0, keys, dim, analytic, emitters, guide, far, weig
         S[INV_PROB, :] = ONE  # probability 1 (where the light cannot contribute, _light_ray gives 0)
         S[IS_EMITTER, :] = ZERO
     blk = np.empty((7, BLOCK), np.float32)
-    dx, dy, dz, dd, er, eg, eb = blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
-    buf, rb = embree.ray_buffer()
-    words = buf.view(np.uint32)
+    rays = step_rays(blk)
+    u = (u1, u2, u3)
+    trace = tracing(tr)
     m = 0
     n = keys.shape[0]
     for b0 in range(0, n, BLOCK):
         b1 = min(b0 + BLOCK, n)
-        c0, c1 = g0 + b0, g0 + b1  # columns of G
         nb = b1 - b0
-        px, py, pz, nx, ny, nz = G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1]
-        gx, gy, gz, bkeys = G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1], keys[b0:b1]
+        pts, bkeys = step_points(G, g0 + b0, g0 + b1), keys[b0:b1]
         if sun_only:
-            _sun_rays(bkeys, dim, nb, table[0], nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
+            _sun_rays(bkeys, dim, nb, table[0], pts, far, rays)
         else:
             if single:
                 _draw_samples(bkeys, dim, nb, u1, u2, u3)
             else:
-                _light_weights(px, py, pz, nx, ny, nz, nb, guide, w, total)
+                _light_weights(pts[0], pts[1], pts[2], pts[3], pts[4], pts[5], nb, guide, w, total)
                 _draw_targets(bkeys, dim, nb, total, target, pick, u1, u2, u3)
                 for k in range(n_lights - 1):  # the light picked: how many running sums lie below the target
                     for i in range(nb):
                         pick[i] += ONE if w[k, i] <= target[i] else ZERO
                 _gather_picked(nb, na, pick, w, total, u1, table, emitters, S)
-            _picked_rays(nb, S, u1, u2, u3, px, py, pz, nx, ny, nz, gx, gy, gz, far, dx, dy, dz, dd, er, eg, eb)
+            _picked_rays(nb, S, u, pts, far, rays)
             if mis:
-                _mis_weights(nb, S, px, py, pz, nx, ny, nz, dx, dy, dz, er, eg, eb, acc, b0)
-        m = _emit(G, g0, b0, nb, blk, m, far, origin, direction, tmax, e, idx, tr, buf, words, rb, acc, True)
+                _mis_weights(nb, S, pts, rays, acc, b0)
+        m = _emit(G, g0, b0, nb, blk, m, far, packed, trace, acc, True)
     return m
 
 
@@ -512,11 +509,12 @@ def _direct_start(n, tr, total):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _traced_or_added(m, tr, total, idx, d, e, G, b0):
+def _traced_or_added(m, tr, total, packed, G, b0):
     """The rays a light's generator made: traced into total already (tr has a scene: m of them),
     or packed, and added here unshadowed (none traced, as shading._gather)."""
     if tr[0] != 0:
         return m
+    d, e, idx = packed[1], packed[3], packed[4]
     add_unblocked(total, idx, d, e, np.zeros(m, np.bool_), m, G, b0)
     return 0
 
@@ -529,19 +527,19 @@ def direct_all(G, b0, keys, lights, dim0, far, tr, total):
     study's cheap GI), every ray's light added, none traced. A function of its own, not a branch
     of direct_one's: a kernel compiles only the light sampling that its options use (issue 44)."""
     analytic, emitters, guide, n_lights = lights
-    o, d, t, e, idx = _direct_start(keys.shape[0], tr, total)
+    packed = _direct_start(keys.shape[0], tr, total)
     start, rows, keep, alias = emitters
+    cluster = (rows, keep, alias)
     count_analytic = analytic[0].shape[0]
     traced = 0
     for k in range(n_lights):
         dim = dim0 + 3 * k
         if k < count_analytic:
-            m = analytic_shadow_rays(k, G, b0, keys, dim, analytic, far, o, d, t, e, idx, tr, total)
+            m = analytic_shadow_rays(k, G, b0, keys, dim, analytic, far, packed, tr, total)
         else:
             j = k - count_analytic
-            m = cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, rows, keep, alias, o, d, t, e, idx,
-                                    tr, total)
-        traced += _traced_or_added(m, tr, total, idx, d, e, G, b0)
+            m = cluster_shadow_rays(start[j], start[j + 1], G, b0, keys, dim, cluster, packed, tr, total)
+        traced += _traced_or_added(m, tr, total, packed, G, b0)
     return traced
 
 
@@ -549,11 +547,10 @@ def direct_all(G, b0, keys, lights, dim0, far, tr, total):
 def direct_one(G, b0, keys, lights, dim0, far, tr, total):
     """direct_all's light from one light per point, chosen by its contribution there
     (dimensions dim0..dim0+3; one_light_shadow_rays)."""
-    analytic, emitters, guide, n_lights = lights
-    o, d, t, e, idx = _direct_start(keys.shape[0], tr, total)
+    n_lights = lights[3]
+    packed = _direct_start(keys.shape[0], tr, total)
     if n_lights == 0:
         return 0
     weights = np.empty((n_lights + SCRATCH_ROWS, BLOCK), np.float32)
-    m = one_light_shadow_rays(G, b0, keys, dim0, analytic, emitters, guide, far, weights, o, d, t, e, idx, tr,
-                              total, False)
-    return _traced_or_added(m, tr, total, idx, d, e, G, b0)
+    m = one_light_shadow_rays(G, b0, keys, dim0, lights, far, weights, packed, tr, total, False)
+    return _traced_or_added(m, tr, total, packed, G, b0)

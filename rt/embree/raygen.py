@@ -138,14 +138,37 @@ def surface_soa(P, N, NG, out):
     _transpose3(NG, out[6], out[7], out[8])
 
 
+@njit(cache=True, error_model="numpy")
+def tracing(tr):
+    """A generator's tracing record: the target tr (rtcore.target) with a ray buffer of its own
+    (rtcore.ray_buffer: the array, its words, the aligned start)."""
+    buf, b = embree.ray_buffer()
+    return tr, buf, buf.view(np.uint32), b
+
+
+@njit(cache=True, error_model="numpy")
+def step_points(G, c0, c1):
+    """Columns c0:c1 of G (surface_soa rows) as one record: (px, py, pz, nx, ny, nz, gx, gy, gz)."""
+    return (G[PX, c0:c1], G[PY, c0:c1], G[PZ, c0:c1], G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1],
+            G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1])
+
+
+@njit(cache=True, error_model="numpy")
+def step_rays(blk):
+    """A step's ray rows as one record: (dx, dy, dz, dist, er, eg, eb) (DIR, DIST, CARRIED)."""
+    return blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
+
+
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, light):
+def _pack(G, g0, b0, nb, blk, m, tmax_value, packed, light):
     """Append the step's rays that carry something, in order: origin offset_origin(p, ng), direction
     (blk's DIR rows), and the point's index; for light rays (`light`) tmax from the DIST row,
     stopping short of the light, and the light CARRIED, kept where it is not zero; for others
     tmax_value, kept where CARRIED > 0. Branch-free: every ray is written at
     slot m, and m moves on only past those kept. (The step loops leave the offset and tmax to
-    this loop: fewer output rows let them vectorise.)"""
+    this loop: fewer output rows let them vectorise.) packed: the buffers (origin, direction,
+    tmax, light, index) the rays go to."""
+    origin, direction, tmax, e, idx = packed
     for j in range(nb):
         i = b0 + j
         origin[m, 0], origin[m, 1], origin[m, 2] = offset_origin(G[PX, g0 + i], G[PY, g0 + i], G[PZ, g0 + i],
@@ -164,9 +187,11 @@ def _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, li
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light):
+def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
     """_pack's rays, traced one by one instead of written out; acc[point] gains what each ray
-    that gets through carries (see _pack and the module notes). Returns how many were traced."""
+    that gets through carries (see _pack and the module notes). trace: tracing(tr)'s record.
+    Returns how many were traced."""
+    tr, buf, words, b = trace
     m = 0
     at = embree.log_reserve(tr, nb)  # the step's slots in tr's ray log (-1: not logging)
     for j in range(nb):
@@ -195,12 +220,12 @@ def _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _emit(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, tr, buf, words, b, acc, light):
-    """A step's rays (blk), traced into acc if tr has a scene (_trace_add), else packed after the
-    m already packed (_pack); returns the new count."""
-    if tr[0]:
-        return m + _trace_add(G, g0, b0, nb, blk, tmax_value, tr, buf, words, b, acc, light)
-    return _pack(G, g0, b0, nb, blk, m, tmax_value, origin, direction, tmax, e, idx, light)
+def _emit(G, g0, b0, nb, blk, m, tmax_value, packed, trace, acc, light):
+    """A step's rays (blk), traced into acc if the target has a scene (_trace_add), else packed
+    into `packed` after the m already there (_pack); returns the new count."""
+    if trace[0][0]:
+        return m + _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light)
+    return _pack(G, g0, b0, nb, blk, m, tmax_value, packed, light)
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -223,7 +248,11 @@ def cosine_about(nx, ny, nz, u0, u1):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
+def _hemisphere_step(pts, keys, dim, rays, nb):
+    """Cosine-weighted directions about the step's shading normals into rays' DIR rows, and
+    their cosine with the true normal (> 0: kept) into CARRIED."""
+    nx, ny, nz, gx, gy, gz = pts[3], pts[4], pts[5], pts[6], pts[7], pts[8]
+    dx, dy, dz, keep = rays[0], rays[1], rays[2], rays[4]
     for j in range(nb):
         key = keys[j]
         x, y, z = cosine_about(nx[j], ny[j], nz[j], uniform(key, dim), uniform(key, dim + 1))
@@ -232,22 +261,21 @@ def _hemisphere_step(nx, ny, nz, gx, gy, gz, keys, dim, dx, dy, dz, keep, nb):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def hemisphere_live(G, g0, keys, dim, tmax_value, origin, direction, tmax, idx, tr, acc):
+def hemisphere_live(G, g0, keys, dim, tmax_value, packed, tr, acc):
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
-    those above the true surface (or, if tr has a scene, traces them and counts in acc those
-    that escape). Returns the count."""
+    those above the true surface into packed (origin, direction, tmax, index) (or, if tr has a
+    scene, traces them and counts in acc those that escape). Returns the count."""
+    origin, direction, tmax, idx = packed
+    packed = (origin, direction, tmax, origin, idx)  # no light carried: _pack never writes it
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
-    buf, b = embree.ray_buffer()
-    words = buf.view(np.uint32)
+    rays = step_rays(blk)
+    trace = tracing(tr)
     m = 0
     for b0 in range(0, n, RUN):
         b1 = min(b0 + RUN, n)
-        c0, c1 = g0 + b0, g0 + b1  # columns of G
-        _hemisphere_step(G[NX, c0:c1], G[NY, c0:c1], G[NZ, c0:c1], G[GX, c0:c1], G[GY, c0:c1], G[GZ, c0:c1],
-                         keys[b0:b1], dim, blk[0], blk[1], blk[2], blk[4], b1 - b0)
-        m = _emit(G, g0, b0, b1 - b0, blk, m, tmax_value, origin, direction, tmax, origin, idx, tr, buf, words, b,
-                  acc, False)
+        _hemisphere_step(step_points(G, g0 + b0, g0 + b1), keys[b0:b1], dim, rays, b1 - b0)
+        m = _emit(G, g0, b0, b1 - b0, blk, m, tmax_value, packed, trace, acc, False)
     return m
 
 

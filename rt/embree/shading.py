@@ -118,12 +118,12 @@ def light_rays(lights: LightSet, k: int, G, keys, dim: int, origin, direction, t
     (rt/embree/raygen.py), or if scene traced and what gets through added to acc; returns their
     count."""
     far = lights.data.far
-    out = (origin, direction, tmax, e, idx, rtcore.target(scene), acc)
+    out = ((origin, direction, tmax, e, idx), rtcore.target(scene), acc)
     if k < lights.count_analytic:
         return light_sampling.analytic_shadow_rays(k, *G, keys, dim, lights.analytic, far, *out)
     start, rows, keep, alias = lights.emitters
     j = k - lights.count_analytic
-    return light_sampling.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, rows, keep, alias, *out)
+    return light_sampling.cluster_shadow_rays(start[j], start[j + 1], *G, keys, dim, (rows, keep, alias), *out)
 
 
 def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax, e, idx, scene=0,
@@ -132,9 +132,8 @@ def one_light_rays(lights: LightSet, G, keys, dim: int, origin, direction, tmax,
     by its estimated contribution, packed, or if scene traced and added to acc. mis: emitters'
     samples weighted against cosine-weighted sampling (raygen.mis_weight)."""
     weights = scratch.buffer("light.w", (lights.count + light_sampling.SCRATCH_ROWS, light_sampling.BLOCK))
-    return light_sampling.one_light_shadow_rays(*G, keys, dim, lights.analytic, lights.emitters, lights.guide,
-                                                lights.data.far, weights, origin, direction, tmax, e,
-                                                idx, rtcore.target(scene), acc, mis)
+    return light_sampling.one_light_shadow_rays(*G, keys, dim, lights.kernel_args, lights.data.far, weights,
+                                                (origin, direction, tmax, e, idx), rtcore.target(scene), acc, mis)
 
 
 def _gather(tracer: Tracer, total, rays, m: int, shadowed: bool, scene: int, G) -> None:
