@@ -122,3 +122,27 @@ def test_the_kernel_cache_keeps_callers_and_their_linked_callees(tmp_path):
         f.unlink()
     third = run()
     assert third["value"] == 16.0 and third["compiled"] == ["top"]
+
+
+def test_a_parallel_kernel_writes_into_arrays_of_a_record():
+    """The parallel kernels take records (tuples of arrays: kernels.shade_hits, unpack_gbuffer)
+    and hand them whole to a serial function per item: in numba 0.68 arrays unpacked from such a
+    tuple before a prange loop lose the loop's writes; the callee's writes arrive."""
+    from numba import prange
+
+    @numba.njit
+    def one(k, out, src):
+        a, b = out
+        (s,) = src
+        a[k] = s[k] * 2
+        _, b[k, 1] = s[k], s[k] + 1
+
+    @numba.njit(parallel=True)
+    def fill(out, src):
+        for k in prange(out[0].shape[0]):
+            one(k, out, src)
+
+    s = np.arange(5000, dtype=np.float32)
+    a, b = np.full(5000, np.nan, np.float32), np.full((5000, 3), np.nan, np.float32)
+    fill((a, b), (s,))
+    assert np.array_equal(a, s * 2) and np.array_equal(b[:, 1], s + 1)

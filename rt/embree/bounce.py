@@ -56,9 +56,14 @@ def specular_share(nv, br, bg, bb, metallic):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def bounce_weights(nx, ny, nz, vx, vy, vz, lx, ly, lz, br, bg, bb, metallic, a, p):
+def bounce_weights(n, v, l, base, metallic, a, p):
     """(w_r, w_g, w_b, w_mean): the mixture estimator's weights (module notes) of direction l
-    drawn at a point of unit normal n seen from v; zero where l is below n."""
+    drawn at a point of unit normal n seen from v (each an (x, y, z)), of base colour base
+    (r, g, b); zero where l is below n."""
+    nx, ny, nz = n
+    vx, vy, vz = v
+    lx, ly, lz = l
+    br, bg, bb = base
     nl = nx * lx + ny * ly + nz * lz
     if not nl > ZERO:
         return ZERO, ZERO, ZERO, ZERO
@@ -108,7 +113,7 @@ def brdf_live(G, g0, keys, dim, lobe_dim, surf, tmax_value, packed, tr, weights)
             key = keys[i]
             lx, ly, lz = bounce_direction(nx, ny, nz, vx, vy, vz, a, p, uniform(key, lobe_dim), uniform(key, dim),
                                           uniform(key, dim + 1))
-            wr, wg, wb, wm = bounce_weights(nx, ny, nz, vx, vy, vz, lx, ly, lz, br, bg, bb, metallic[i], a, p)
+            wr, wg, wb, wm = bounce_weights((nx, ny, nz), (vx, vy, vz), (lx, ly, lz), (br, bg, bb), metallic[i], a, p)
             above = G[GX, c] * lx + G[GY, c] * ly + G[GZ, c] * lz > ZERO and wm > ZERO
             blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j] = lx, ly, lz
             blk[CARRIED, j] = ONE if above else ZERO

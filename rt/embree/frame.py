@@ -69,10 +69,9 @@ class RtFrame:
         from rt.embree.kernel_args import FrameArgs
         from rt.environment import env_dist_args
 
-        s = self.gb.surface
-        return FrameArgs(self.gb.soa, self.gb.index, self.gb.view_dir, s.p, s.n, s.ng, s.albedo, s.roughness,
-                         s.metallic, s.emissive, env_args(self.environment), env_dist_args(self.environment),
-                         self.tracer.frame_target(), out, aux)
+        return FrameArgs(self.gb.soa, self.gb.index, self.gb.view_dir, self.gb.surface.arrays(),
+                         env_args(self.environment), env_dist_args(self.environment), self.tracer.frame_target(), out,
+                         aux)
 
     def aux_image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
         """image(channels, fill, name) for a pass's output besides radiance, or when the frame

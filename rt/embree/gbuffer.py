@@ -54,10 +54,9 @@ def from_raster(packed: dict, camera, width: int, height: int, reuse: bool = Fal
     covered = new("covered", (n,), np.bool_)
     soa = new("soa", (9, m))
     r, u, f = (x.astype(np.float64) for x in camera.basis())
-    unpack_gbuffer(geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"]), idx, row_start,
-                   camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
-                   np.asarray(jitter, np.float64), s.p, s.n, s.ng, s.albedo, s.roughness, s.metallic, s.emissive,
-                   view, depth, covered, soa)
+    unpack_gbuffer((geometry, geometry.view(np.float32), np.ascontiguousarray(packed["material"])), (idx, row_start),
+                   (camera.eye.astype(np.float64), r, u, f, float(np.tan(np.radians(camera.fov) / 2)),
+                    np.asarray(jitter, np.float64)), s.arrays(), (view, depth, covered), soa)
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), view, covered, idx, s, depth, soa)
 
 

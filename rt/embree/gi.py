@@ -73,8 +73,6 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
     bounces x r. Returns the rays traced."""
     nb = keys.shape[0]
     env_kind, env_color, horizon, zenith, ground, texels = frame.env
-    (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
-     colors) = scene.mesh
     o, d, t, owner = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32), np.empty(nb, np.float32),
                       np.empty(nb, np.int32))
     tmax = np.full(nb, embree.MISS_T, np.float32)
@@ -120,9 +118,8 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
                               ground, texels, sel)  # deeper, the environment was sampled at the hit left
         hits = sel[:k]
         # ---- the hits shaded, and lit by one light sample each ----
-        _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic, emission,
-                    tex_offset, tex_w, tex_h, wrap, tex_data, colors, P[:k], N[:k], NG[:k], alb[:k], rough[:k],
-                    metal[:k], emis[:k])
+        _shade_hits(hits, (prim, u, v, th), (o, d), scene.mesh,
+                    (P[:k], N[:k], NG[:k], alb[:k], rough[:k], metal[:k], emis[:k]))
         gather.gather_keys(keys_a, owner, hits, k, keys_b)
         hit_points = np.empty((9, k), np.float32)
         raygen.surface_soa(P[:k], N[:k], NG[:k], hit_points)

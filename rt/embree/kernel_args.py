@@ -37,10 +37,10 @@ class FrameArgsType(types.StructRef):
 
 
 class FrameArgs(structref.StructRefProxy):
-    def __new__(cls, points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target,
-                out, aux):
-        return _frame_args(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist,
-                           target, out, aux)
+    def __new__(cls, points, pix, view_dir, surface, env, env_dist, target, out, aux):
+        """surface: the covered pixels' G-buffer, as Surface.arrays (p, n, ng, albedo,
+        roughness, metallic, emissive): the fields of the same names."""
+        return _frame_args(points, pix, view_dir, surface, env, env_dist, target, out, aux)
 
 
 structref.define_proxy(FrameArgs, FrameArgsType, [
@@ -64,7 +64,7 @@ def _scene_args(mesh, lights, far):
 
 
 @njit(cache=True)
-def _frame_args(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target, out,
-                aux):
+def _frame_args(points, pix, view_dir, surface, env, env_dist, target, out, aux):
+    p, n, ng, albedo, roughness, metallic, emissive = surface
     return FrameArgs(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target,
                      out, aux)

@@ -168,65 +168,79 @@ def uniforms(keys, dim0, k, out):
             out[i, j] = uniform(keys[i], dim0 + j)
 
 
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _shade_hit(k, n, sel, hits, rays, mesh, out):
+    """shade_hits for hit k of n."""
+    # records read by index, not unpacked: in a parallel kernel numba loses the writes to arrays
+    # that come out of a tuple unpacking (numba 0.68; tests/test_jit.py)
+    prim, bu, bv, t, O, D = hits[0], hits[1], hits[2], hits[3], rays[0], rays[1]
+    corners, face_normals, base_color = mesh[0], mesh[1], mesh[2]
+    roughness, metallic, emissive = mesh[3], mesh[4], mesh[5]
+    tex_offset, tex_w, tex_h, wrap, tex_data, colors = mesh[6], mesh[7], mesh[8], mesh[9], mesh[10], mesh[11]
+    P, N, NG, albedo, rough, metal, emis = out[0], out[1], out[2], out[3], out[4], out[5], out[6]
+    if k + AHEAD < n:
+        ahead = prim[sel[k + AHEAD]]
+        prefetch_row(corners, ahead)
+        prefetch_row(face_normals, ahead)
+    i = sel[k]
+    tri = prim[i]
+    c = corners[tri]
+    w1, w2 = bu[i], bv[i]
+    w0 = 1.0 - w1 - w2
+    gx, gy, gz = face_normals[tri, 0], face_normals[tri, 1], face_normals[tri, 2]
+    if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
+        gx, gy, gz = -gx, -gy, -gz
+    NG[k, 0], NG[k, 1], NG[k, 2] = gx, gy, gz
+    lift = hit_lift(O[i, 0], O[i, 1], O[i, 2], D[i, 0] * t[i], D[i, 1] * t[i], D[i, 2] * t[i], gx, gy, gz)
+    P[k, 0] = O[i, 0] + D[i, 0] * t[i] + gx * lift
+    P[k, 1] = O[i, 1] + D[i, 1] * t[i] + gy * lift
+    P[k, 2] = O[i, 2] + D[i, 2] * t[i] + gz * lift
+    m = int(c[15])
+    u, v = textures.hit_uv(c, w1, w2)
+    nx = w0 * c[0] + w1 * c[3] + w2 * c[6]
+    ny = w0 * c[1] + w1 * c[4] + w2 * c[7]
+    nz = w0 * c[2] + w1 * c[5] + w2 * c[8]
+    ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if ln < 1e-20:
+        nx, ny, nz, ln = gx, gy, gz, 1.0
+    nx, ny, nz = nx / ln, ny / ln, nz / ln
+    if tex_offset[m, LAYER_NORMAL] >= 0:  # each texture a call, made only where the layer is there
+        nx, ny, nz = textures.normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v,
+                                            (tex_offset, tex_w, tex_h, wrap, tex_data))
+    if nx * gx + ny * gy + nz * gz < 0:
+        nx, ny, nz = -nx, -ny, -nz
+    N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
+    r = g = b = 1.0
+    if tex_offset[m, LAYER_BASE] >= 0:
+        r, g, b, _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)
+    if colors.shape[0] > 1:  # vertex colours (colors: one white row where the scene has none)
+        vc = colors[tri]
+        r *= w0 * vc[0] + w1 * vc[3] + w2 * vc[6]
+        g *= w0 * vc[1] + w1 * vc[4] + w2 * vc[7]
+        b *= w0 * vc[2] + w1 * vc[5] + w2 * vc[8]
+    albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
+    if tex_offset[m, LAYER_ORM] >= 0:
+        _, rough[k], metal[k], _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_ORM, u, v)
+    else:
+        rough[k], metal[k] = roughness[m], metallic[m]
+    if tex_offset[m, LAYER_EMISSION] >= 0:
+        emis[k, 0], emis[k, 1], emis[k, 2], _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m,
+                                                                LAYER_EMISSION, u, v)
+    else:
+        emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
+
+
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def shade_hits(sel, prim, bu, bv, t, O, D, corners, face_normals, base_color, roughness, metallic, emissive,
-               tex_offset, tex_w, tex_h, wrap, tex_data, colors, P, N, NG, albedo, rough, metal, emis):
+def shade_hits(sel, hits, rays, mesh, out):
     """Surface data at the hits of rays sel[k] (written at k): position, normals facing the ray
     (the shading normal normal-mapped), textured albedo, roughness, metallic and emission.
-    corners: per triangle its 3 vertex normals, 3 uvs, material and tangents (rt/mesh.py), so
-    an incoherent hit reads one row of mesh data, not one per array."""
+    hits: (triangle, barycentric u, v, distance) per ray; rays: (origins, directions); mesh:
+    SceneData.mesh_args, whose corners hold per triangle its 3 vertex normals, 3 uvs, material
+    and tangents (rt/mesh.py), so an incoherent hit reads one row of mesh data, not one per
+    array; out: the Surface's arrays (p, n, ng, albedo, roughness, metallic, emissive)."""
     n = sel.shape[0]
-    for k in prange(n):
-        if k + AHEAD < n:
-            ahead = prim[sel[k + AHEAD]]
-            prefetch_row(corners, ahead)
-            prefetch_row(face_normals, ahead)
-        i = sel[k]
-        tri = prim[i]
-        c = corners[tri]
-        w1, w2 = bu[i], bv[i]
-        w0 = 1.0 - w1 - w2
-        gx, gy, gz = face_normals[tri, 0], face_normals[tri, 1], face_normals[tri, 2]
-        if gx * D[i, 0] + gy * D[i, 1] + gz * D[i, 2] > 0:
-            gx, gy, gz = -gx, -gy, -gz
-        NG[k, 0], NG[k, 1], NG[k, 2] = gx, gy, gz
-        lift = hit_lift(O[i, 0], O[i, 1], O[i, 2], D[i, 0] * t[i], D[i, 1] * t[i], D[i, 2] * t[i], gx, gy, gz)
-        P[k, 0] = O[i, 0] + D[i, 0] * t[i] + gx * lift
-        P[k, 1] = O[i, 1] + D[i, 1] * t[i] + gy * lift
-        P[k, 2] = O[i, 2] + D[i, 2] * t[i] + gz * lift
-        m = int(c[15])
-        u, v = textures.hit_uv(c, w1, w2)
-        nx = w0 * c[0] + w1 * c[3] + w2 * c[6]
-        ny = w0 * c[1] + w1 * c[4] + w2 * c[7]
-        nz = w0 * c[2] + w1 * c[5] + w2 * c[8]
-        ln = math.sqrt(nx * nx + ny * ny + nz * nz)
-        if ln < 1e-20:
-            nx, ny, nz, ln = gx, gy, gz, 1.0
-        nx, ny, nz = nx / ln, ny / ln, nz / ln
-        if tex_offset[m, LAYER_NORMAL] >= 0:  # each texture a call, made only where the layer is there
-            nx, ny, nz = textures.normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex_offset, tex_w, tex_h, wrap,
-                                                tex_data)
-        if nx * gx + ny * gy + nz * gz < 0:
-            nx, ny, nz = -nx, -ny, -nz
-        N[k, 0], N[k, 1], N[k, 2] = nx, ny, nz
-        r = g = b = 1.0
-        if tex_offset[m, LAYER_BASE] >= 0:
-            r, g, b, _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_BASE, u, v)
-        if colors.shape[0] > 1:  # vertex colours (colors: one white row where the scene has none)
-            vc = colors[tri]
-            r *= w0 * vc[0] + w1 * vc[3] + w2 * vc[6]
-            g *= w0 * vc[1] + w1 * vc[4] + w2 * vc[7]
-            b *= w0 * vc[2] + w1 * vc[5] + w2 * vc[8]
-        albedo[k, 0], albedo[k, 1], albedo[k, 2] = base_color[m, 0] * r, base_color[m, 1] * g, base_color[m, 2] * b
-        if tex_offset[m, LAYER_ORM] >= 0:
-            _, rough[k], metal[k], _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_ORM, u, v)
-        else:
-            rough[k], metal[k] = roughness[m], metallic[m]
-        if tex_offset[m, LAYER_EMISSION] >= 0:
-            emis[k, 0], emis[k, 1], emis[k, 2], _ = textures.sample(tex_data, tex_offset, tex_w, tex_h, wrap, m,
-                                                                    LAYER_EMISSION, u, v)
-        else:
-            emis[k, 0], emis[k, 1], emis[k, 2] = emissive[m, 0], emissive[m, 1], emissive[m, 2]
+    for k in prange(n):  # the records passed whole: see _shade_hit
+        _shade_hit(k, n, sel, hits, rays, mesh, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -301,55 +315,68 @@ def _octahedral(word):
 
 
 @njit(cache=True, error_model="numpy", parallel=True, fastmath=True)
-def unpack_gbuffer(geometry, depth_bits, material, idx, row_start, eye, right, up, fwd, tan_half, jitter,
-                   P, N, NG, albedo, rough, metal, emis, view_dir, depth, covered, G):
+def unpack_gbuffer(packed, cover, camera, out, pixels, G):
     """The packed G-buffer (shaders/gbuffer_pack.frag; bottom row first; depth_bits: its first
     word read as float32) -> per-covered-pixel surface arrays, and per-pixel view directions,
     linear depths and coverage, top row first. Positions come back from the pixel's ray and
     depth (the ray through the pixel's centre moved by jitter, as the raster's projection was),
     lifted off the surface by their error (hit_lift).
     Row by row (idx and row_start from covered_pixels): no division per pixel. G (9, M): p, n and
-    ng again as rows, what the ray generators read (rt/embree/raygen.py: surface_soa)."""
+    ng again as rows, what the ray generators read (rt/embree/raygen.py: surface_soa).
+    packed: (geometry, depth_bits, material); cover: (idx, row_start); camera: (eye, right, up,
+    fwd, tan_half, jitter); out: the covered pixels' Surface arrays (p, n, ng, albedo,
+    roughness, metallic, emissive); pixels: every pixel's (view_dir, depth, covered)."""
+    for y in prange(packed[0].shape[0]):  # the records passed whole: see _shade_hit
+        _unpack_row(y, packed, cover, camera, out, pixels, G)
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _unpack_row(y, packed, cover, camera, out, pixels, G):
+    """unpack_gbuffer for pixel row y (top first)."""
+    geometry, depth_bits, material = packed
+    idx, row_start = cover
+    eye, right, up, fwd, tan_half, jitter = camera
+    P, N, NG, albedo, rough, metal, emis = out
+    view_dir, depth, covered = pixels
     height, width = geometry.shape[0], geometry.shape[1]
     aspect = width / height
-    for y in prange(height):
-        r = height - 1 - y
-        sy = (1.0 - (y + 0.5 + jitter[1]) / height * 2.0) * tan_half  # as _pixel_ray
-        for x in range(width):
-            p = y * width + x
-            sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * aspect
-            dx = right[0] * sx + up[0] * sy + fwd[0]
-            dy = right[1] * sx + up[1] * sy + fwd[1]
-            dz = right[2] * sx + up[2] * sy + fwd[2]
-            inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
-            view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = dx * inv, dy * inv, dz * inv
-            depth[p] = 0.0
-            covered[p] = False
-        for j in range(row_start[y], row_start[y + 1]):
-            p = idx[j]
-            x = p - y * width
-            d = depth_bits[r, x, 0]
-            depth[p] = d
-            covered[p] = True
-            # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
-            sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * aspect
-            dx = right[0] * sx + up[0] * sy + fwd[0]
-            dy = right[1] * sx + up[1] * sy + fwd[1]
-            dz = right[2] * sx + up[2] * sy + fwd[2]
-            nx, ny, nz = _octahedral(geometry[r, x, 1])
-            gx, gy, gz = _octahedral(geometry[r, x, 2])
-            lift = hit_lift(eye[0], eye[1], eye[2], dx * d, dy * d, dz * d, gx, gy, gz)
-            px, py, pz = eye[0] + dx * d + gx * lift, eye[1] + dy * d + gy * lift, eye[2] + dz * d + gz * lift
-            P[j, 0], P[j, 1], P[j, 2] = px, py, pz
-            N[j, 0], N[j, 1], N[j, 2] = nx, ny, nz
-            NG[j, 0], NG[j, 1], NG[j, 2] = gx, gy, gz
-            G[PX, j], G[PY, j], G[PZ, j], G[NX, j], G[NY, j], G[NZ, j] = px, py, pz, nx, ny, nz
-            G[GX, j], G[GY, j], G[GZ, j] = gx, gy, gz
-            c, m0, m1, m2 = geometry[r, x, 3], material[r, x, 0], material[r, x, 1], material[r, x, 2]
-            albedo[j, 0], albedo[j, 1], albedo[j, 2] = _half(c), _half(c >> 16), _half(m2)
-            metal[j] = _half(m2 >> 16)
-            emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
-            rough[j] = _half(m1 >> 16)
+    r = height - 1 - y
+    sy = (1.0 - (y + 0.5 + jitter[1]) / height * 2.0) * tan_half  # as _pixel_ray
+    for x in range(width):
+        p = y * width + x
+        sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * aspect
+        dx = right[0] * sx + up[0] * sy + fwd[0]
+        dy = right[1] * sx + up[1] * sy + fwd[1]
+        dz = right[2] * sx + up[2] * sy + fwd[2]
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        view_dir[p, 0], view_dir[p, 1], view_dir[p, 2] = dx * inv, dy * inv, dz * inv
+        depth[p] = 0.0
+        covered[p] = False
+    for j in range(row_start[y], row_start[y + 1]):
+        p = idx[j]
+        x = p - y * width
+        d = depth_bits[r, x, 0]
+        depth[p] = d
+        covered[p] = True
+        # the pixel-centre ray has unit length along fwd, so depth scales it to the surface
+        sx = ((x + 0.5 + jitter[0]) / width * 2.0 - 1.0) * tan_half * aspect
+        dx = right[0] * sx + up[0] * sy + fwd[0]
+        dy = right[1] * sx + up[1] * sy + fwd[1]
+        dz = right[2] * sx + up[2] * sy + fwd[2]
+        nx, ny, nz = _octahedral(geometry[r, x, 1])
+        gx, gy, gz = _octahedral(geometry[r, x, 2])
+        lift = hit_lift(eye[0], eye[1], eye[2], dx * d, dy * d, dz * d, gx, gy, gz)
+        px, py, pz = eye[0] + dx * d + gx * lift, eye[1] + dy * d + gy * lift, eye[2] + dz * d + gz * lift
+        P[j, 0], P[j, 1], P[j, 2] = px, py, pz
+        N[j, 0], N[j, 1], N[j, 2] = nx, ny, nz
+        NG[j, 0], NG[j, 1], NG[j, 2] = gx, gy, gz
+        G[PX, j], G[PY, j], G[PZ, j], G[NX, j], G[NY, j], G[NZ, j] = px, py, pz, nx, ny, nz
+        G[GX, j], G[GY, j], G[GZ, j] = gx, gy, gz
+        c, m0, m1, m2 = geometry[r, x, 3], material[r, x, 0], material[r, x, 1], material[r, x, 2]
+        albedo[j, 0], albedo[j, 1], albedo[j, 2] = _half(c), _half(c >> 16), _half(m2)
+        metal[j] = _half(m2 >> 16)
+        emis[j, 0], emis[j, 1], emis[j, 2] = _half(m0), _half(m0 >> 16), _half(m1)
+        rough[j] = _half(m1 >> 16)
 
 
 @njit(cache=True, error_model="numpy", parallel=True)

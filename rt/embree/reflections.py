@@ -17,13 +17,15 @@ _shade_hits = shade_hits.serial  # inside a parallel kernel's blocks
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _mirror_hits(scene, frame, P, N, NG, V, sel, keys, dim0, lit, ggx, below, refl):
-    """One mirror bounce: from the points sel[k] of (P, N, NG) seen along V[k] (keys[k]: their
+def _mirror_hits(scene, frame, points, V, sel, keys, dim0, lit, ggx, below, refl):
+    """One mirror bounce: from the points sel[k] of points (P, N, NG) seen along V[k] (keys[k]: their
     generators), ray k's closest hit shaded (lit: with its own light sample, dimensions
     dim0..dim0+3, and the environment's, _env_sample; ggx: glTF's BRDF, brdf.py) and its colour;
     hits smoother than `below` reflect further; refl[k] gains the environment where ray k missed.
     Returns the rays that hit (hits), every ray's direction (d), the hits' shading
-    (P, N, NG, albedo, roughness, metallic, emission), colour and keys, and the rays traced."""
+    (P, N, NG, albedo, roughness, metallic, emission: Surface.arrays' order), colour and keys,
+    and the rays traced."""
+    P, N, NG = points
     m = sel.shape[0]
     o, d = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)
     gather.mirror_rays(P, N, NG, V, sel, o, d)
@@ -44,8 +46,6 @@ def _env_sample(scene, frame, G, g0, keys, dim0, acc, albedo, metallic, diffuse)
 @njit(cache=True, error_model="numpy", nogil=True)
 def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
     """_mirror_hits for rays (o, d) already made (keys[k]: ray k's generator)."""
-    (corners, face_normals, base_color, roughness, metallic, emission, tex_offset, tex_w, tex_h, wrap, tex_data,
-     colors) = scene.mesh
     env_kind, env_color, horizon, zenith, ground, texels = frame.env
     m = o.shape[0]
     th, prim = np.empty(m, np.float32), np.empty(m, np.int32)  # hits: distance, triangle, barycentrics
@@ -58,8 +58,7 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
                                 np.empty((k, 3), np.float32), np.empty((k, 3), np.float32),
                                 np.empty((k, 3), np.float32))
     hrough, hmetal = np.empty(k, np.float32), np.empty(k, np.float32)
-    _shade_hits(hits, prim, u, v, th, o, d, corners, face_normals, base_color, roughness, metallic, emission,
-                tex_offset, tex_w, tex_h, wrap, tex_data, colors, HP, HN, HNG, halb, hrough, hmetal, hemis)
+    _shade_hits(hits, (prim, u, v, th), (o, d), scene.mesh, (HP, HN, HNG, halb, hrough, hmetal, hemis))
     hkeys = np.empty(k, np.uint64)
     gather.gather_keys(keys, owner, hits, k, hkeys)
     hdirect = brdf.accumulator(ggx and lit, d, hits, hrough)
@@ -72,16 +71,18 @@ def _hits_of(scene, frame, o, d, keys, dim0, lit, ggx, below, refl):
         traced += _env_sample(scene, frame, hg, 0, hkeys, dim0, hdirect, halb, hmetal, hrough < below)
     colour = np.zeros((k, 3), np.float32)
     gather.add_hit_colour(colour, np.arange(k), k, hemis, halb, hmetal, hdirect, lit)
-    return hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, traced
+    return hits, d, (HP, HN, HNG, halb, hrough, hmetal, hemis), colour, hkeys, traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d, hits, keys, colour):
-    """Mirrors 2..depth below the first mirror's hits (their shading, keys and colour; d: the
+def _deeper(scene, frame, depth, thr, lit, ggx, surf, d, hits, keys, colour):
+    """Mirrors 2..depth below the first mirror's hits (surf: their shading, as _mirror_hits
+    returns it; their keys and colour; d: the
     first mirror rays' directions): each level's smooth hits reflect again (_mirror_hits, light
     dimensions 4 x level), then, deepest first, each level's colour takes Fresnel's blend with
     the reflections below it; colour gains the second
     mirror's. Returns the rays traced."""
+    HP, HN, HNG, halb, hrough, hmetal, hemis = surf
     levels = depth - 1
     cap = hits.shape[0]  # no level has more points than the first has hits
     sel, hit_l = np.empty((levels, cap), np.int64), np.empty((levels, cap), np.int64)
@@ -105,8 +106,9 @@ def _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmeta
         for j in range(m):
             skeys[j] = pkeys[sel[lv, j]]
         below = thr if lv + 2 < depth else np.float32(0.0)  # whether this level's hits reflect again
-        h, dd, P2, N2, NG2, alb2, rough2, metal2, emis2, col2, keys2, t = _mirror_hits(
-            scene, frame, pP, pN, pNG, V[lv, :m], sel[lv, :m], skeys, 4 * (lv + 2), lit, ggx, below, refl[lv])
+        h, dd, surf2, col2, keys2, t = _mirror_hits(scene, frame, (pP, pN, pNG), V[lv, :m], sel[lv, :m], skeys,
+                                                   4 * (lv + 2), lit, ggx, below, refl[lv])
+        P2, N2, NG2, alb2, rough2, metal2, emis2 = surf2
         traced += t
         k = h.shape[0]
         hit_count[lv] = k
@@ -150,8 +152,7 @@ def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
         gather.glossy_ray(frame.p[i], frame.n[i], frame.ng[i], frame.view_dir[p], frame.albedo[i],
                           frame.metallic[i], frame.roughness[i], keys[j], o[k], d[k], weight[k])
     refl = np.zeros((m, 3), np.float32)
-    hits, _, _, _, _, _, _, _, _, colour, _, traced = _hits_of(scene, frame, o, d, gkeys, 4, True, True,
-                                                               np.float32(0.0), refl)
+    hits, _, _, colour, _, traced = _hits_of(scene, frame, o, d, gkeys, 4, True, True, np.float32(0.0), refl)
     for i in range(hits.shape[0]):
         for a in range(3):
             refl[hits[i], a] = colour[i, a]
@@ -182,13 +183,11 @@ def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx,
         traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy and ggx, local)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
         refl = np.zeros((near.shape[0], 3), np.float32)
-        hits, d, HP, HN, HNG, halb, hrough, hmetal, hemis, colour, hkeys, t = _mirror_hits(
-            scene, frame, frame.p, frame.n, frame.ng, V, smooth, skeys, 4, lit, ggx,
-            thr if depth > 1 else np.float32(0.0), refl)
+        hits, d, surf, colour, hkeys, t = _mirror_hits(scene, frame, (frame.p, frame.n, frame.ng), V, smooth, skeys,
+                                                       4, lit, ggx, thr if depth > 1 else np.float32(0.0), refl)
         traced += t
         if depth > 1:
-            traced += _deeper(scene, frame, depth, thr, lit, ggx, HP, HN, HNG, halb, hrough, hmetal, hemis, d,
-                              hits, hkeys, colour)
+            traced += _deeper(scene, frame, depth, thr, lit, ggx, surf, d, hits, hkeys, colour)
         reflection = _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx)
         if glossy and ggx and lit:
             traced += _glossy(scene, frame, pix, b0, b1 - b0, keys, thr, local)
@@ -210,8 +209,8 @@ def reflections_one(counter, bounds, scene, frame, base, thr, lit, ggx):
         traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, False, local)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
         refl = np.zeros((near.shape[0], 3), np.float32)
-        hits, _, _, _, _, _, _, _, _, colour, _, t = _mirror_hits(scene, frame, frame.p, frame.n, frame.ng, V, smooth,
-                                                                  skeys, 4, lit, ggx, np.float32(0.0), refl)
+        hits, _, _, colour, _, t = _mirror_hits(scene, frame, (frame.p, frame.n, frame.ng), V, smooth, skeys, 4, lit,
+                                                ggx, np.float32(0.0), refl)
         traced += t
         _write(frame, b0, b1, local, _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx))
 

@@ -41,6 +41,10 @@ class Surface:
     def __len__(self) -> int:
         return self.p.shape[0]
 
+    def arrays(self) -> tuple:
+        """The fields in order, as the kernels that write a surface take them (kernels.shade_hits)."""
+        return self.p, self.n, self.ng, self.albedo, self.roughness, self.metallic, self.emissive
+
     def soa(self, name: str | None = None) -> tuple[np.ndarray, int]:
         """What the ray generators read (rt/embree/raygen.py): (rows, first column), the rows (9, n)
         px, py, pz, nx, ny, nz, ngx, ngy, ngz, from column 0; in this thread's scratch buffer
@@ -79,11 +83,9 @@ class SceneData(MeshArrays):
             sel = np.arange(n)
         out = empty_surface(n) if out is None else out.take(slice(0, n))
         if n:
-            kernels.shade_hits(sel, hits.prim, hits.u, hits.v, hits.t, np.ascontiguousarray(origins, np.float32),
-                               np.ascontiguousarray(dirs, np.float32), self.corners, self.face_normals,
-                               self.base_color, self.roughness, self.metallic, self.emissive, self.tex_offset,
-                               self.tex_w, self.tex_h, self.wrap, self.tex_data, self.tri_colors, out.p, out.n,
-                               out.ng, out.albedo, out.roughness, out.metallic, out.emissive)
+            kernels.shade_hits(sel, (hits.prim, hits.u, hits.v, hits.t),
+                               (np.ascontiguousarray(origins, np.float32), np.ascontiguousarray(dirs, np.float32)),
+                               self.mesh_args, out.arrays())
         return out
 
     @property

@@ -87,10 +87,12 @@ def passes_alpha(corners, tex_offset, tex_w, tex_h, wrap, tex_data, cutoff, base
 
 
 @njit(cache=True, error_model="numpy")
-def normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex_offset, tex_w, tex_h, wrap, tex_data):
+def normal_mapped(c, m, w0, w1, w2, nx, ny, nz, u, v, tex):
     """The shading normal (nx, ny, nz: the interpolated unit vertex normal) bent by material
     m's normal map (which it has: tex_offset[m, LAYER_NORMAL] >= 0) in the frame of the
-    interpolated vertex tangents (row columns 16..27)."""
+    interpolated vertex tangents (row columns 16..27). tex: the texture layers (tex_offset,
+    tex_w, tex_h, wrap, tex_data: SceneData.mesh_args')."""
+    tex_offset, tex_w, tex_h, wrap, tex_data = tex
     if c.shape[0] < 28:
         return nx, ny, nz
     mx, my, mz, _ = sample(tex_data, tex_offset, tex_w, tex_h, wrap, m, LAYER_NORMAL, u, v)
