@@ -11,6 +11,7 @@ import threading
 import types
 from contextlib import contextmanager
 
+import numba
 import numpy as np
 from llvmlite import ir
 from numba import prange
@@ -168,10 +169,10 @@ def uniforms(keys, dim0, k, out):
             out[i, j] = uniform(keys[i], dim0 + j)
 
 
-SHADE_RUN = 256  # hits per call of _shade_run
+SHADE_RUN = 256  # hits per run of _shade_run
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
+@numba.njit(cache=True, error_model="numpy", fastmath=True, inline="always")
 def _shade_run(k0, k1, n, sel, hits, rays, mesh, out):
     """shade_hits for hits k0..k1 of n. A function of its own, given the records whole: in a
     parallel kernel, numba (0.68) loses writes to arrays taken out of a tuple before the loop
