@@ -20,7 +20,7 @@ import numpy as np
 from rt.embree.brdf import INV_PI, ONE, ZERO, alpha, f0, ggx_terms, visible_normal, visible_normal_density
 from rt.embree.jit import njit
 from rt.embree.kernels import uniform
-from rt.embree.raygen import CARRIED, DIR, RUN, _emit, cosine_about, tracing
+from rt.embree.raygen import CARRIED, DIR, RUN, _emit, cosine_about, tracing, without_light
 from rt.layout import GX, GY, GZ, NX, NY, NZ
 
 P_SPEC_MAX = np.float32(0.5)
@@ -94,8 +94,7 @@ def brdf_live(G, g0, keys, dim, lobe_dim, surf, tmax_value, packed, tr, weights)
     and its true surface, and weights[i] = (w_r, w_g, w_b, w_mean) (bounce_weights; zero for a
     point whose ray is not packed). Returns the count."""
     V, albedo, metallic, rough = surf
-    origin, direction, tmax, idx = packed
-    packed = (origin, direction, tmax, origin, idx)  # no light carried: _pack never writes it
+    packed = without_light(packed)
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     trace = tracing(tr)

@@ -172,12 +172,13 @@ def uniforms(keys, dim0, k, out):
 SHADE_RUN = 256  # hits per run of _shade_run
 
 
+# numba's own njit, inlined into shade_hits' loops at numba IR level (inline="always"): they then
+# compile as the one loop they were, not as calls through rt/embree/jit.py's linked twins
 @numba.njit(cache=True, error_model="numpy", fastmath=True, inline="always")
 def _shade_run(k0, k1, n, sel, hits, rays, mesh, out):
     """shade_hits for hits k0..k1 of n. A function of its own, given the records whole: in a
     parallel kernel, numba (0.68) loses writes to arrays taken out of a tuple before the loop
-    (tests/test_jit.py); a run of hits a call, not one, so that the records are passed once
-    per SHADE_RUN hits (one call a hit made GI 20-30 % slower)."""
+    (tests/test_jit.py)."""
     prim, bu, bv, t = hits
     O, D = rays
     (corners, face_normals, base_color, roughness, metallic, emissive, tex_offset, tex_w, tex_h, wrap, tex_data,

@@ -159,6 +159,14 @@ def step_rays(blk):
     return blk[0], blk[1], blk[2], blk[3], blk[4], blk[5], blk[6]
 
 
+@njit(cache=True, error_model="numpy")
+def without_light(packed):
+    """Packed-ray buffers (origin, direction, tmax, index) as _pack takes them for rays that
+    carry no light: the origin buffer stands in for the light buffer, which _pack never writes."""
+    origin, direction, tmax, idx = packed
+    return origin, direction, tmax, origin, idx
+
+
 @njit(cache=True, error_model="numpy", fastmath=True)
 def _pack(G, g0, b0, nb, blk, m, tmax_value, packed, light):
     """Append the step's rays that carry something, in order: origin offset_origin(p, ng), direction
@@ -265,8 +273,7 @@ def hemisphere_live(G, g0, keys, dim, tmax_value, packed, tr, acc):
     """Cosine-weighted rays about the shading normals of points G (surface_soa rows); packs
     those above the true surface into packed (origin, direction, tmax, index) (or, if tr has a
     scene, traces them and counts in acc those that escape). Returns the count."""
-    origin, direction, tmax, idx = packed
-    packed = (origin, direction, tmax, origin, idx)  # no light carried: _pack never writes it
+    packed = without_light(packed)
     n = keys.shape[0]
     blk = np.empty((7, RUN), np.float32)
     rays = step_rays(blk)
