@@ -124,6 +124,43 @@ def test_the_kernel_cache_keeps_callers_and_their_linked_callees(tmp_path):
     assert third["value"] == 16.0 and third["compiled"] == ["top"]
 
 
+LOADED = textwrap.dedent('''
+    import json
+    import numpy as np
+    from rt.embree import inner_code
+    from rt.embree.jit import inner_of
+    import probe_kernels
+    value = probe_kernels.top(np.arange(4.0))
+    (cres,) = inner_of(probe_kernels.leaf).overloads.values()
+    (top,) = probe_kernels.top.overloads.values()
+    leaf_name, top_name = cres.fndesc.llvm_func_name, top.fndesc.llvm_func_name
+    alone = 0  # modules of the JIT engine that hold leaf's code but not top's
+    for module in cres.library.codegen._engine._ee._modules:
+        defined = {f.name for f in module.functions if not f.is_declaration}
+        alone += leaf_name in defined and top_name not in defined
+    print(json.dumps({"value": value, "inner": isinstance(cres.library, inner_code.InnerLibrary), "alone": alone}))
+''')
+
+
+def test_a_callee_loaded_from_the_cache_stays_code_to_link(tmp_path):
+    """A caller compiled in a process that loads its callee from the cache links the callee's
+    code and runs its own optimised copy: the callee's library is not made into machine code of
+    its own (numba's cache loading would, and the caller's call, to a weak symbol, then bound to
+    that copy, optimised function by function only: AO's ray generation ran 20x slower)."""
+    if not inner_code.SUPPORTED:
+        return
+    (tmp_path / "probe_kernels.py").write_text(KERNELS)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join([str(tmp_path), os.getcwd(), os.environ.get("PYTHONPATH", "")]))
+    r = subprocess.run([sys.executable, "-c", LOADED], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    for f in (tmp_path / "cache").rglob("*top*"):
+        f.unlink()  # top compiles again, leaf comes from the cache
+    r = subprocess.run([sys.executable, "-c", LOADED], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout.strip().splitlines()[-1]) == {"value": 16.0, "inner": True, "alone": 0}
+
+
 def test_a_parallel_kernel_writes_into_arrays_of_a_record():
     """The parallel kernels take records (tuples of arrays: kernels.shade_hits, unpack_gbuffer)
     and hand them whole to a serial function per item: in numba 0.68 arrays unpacked from such a

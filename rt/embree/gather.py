@@ -73,8 +73,10 @@ def fill_uncovered(out, aux, aux_fill, pix, b0, b1, view_dir, env):
     n = pix.shape[0]
     p = pix[b0 - 1] + 1 if b0 > 0 else 0
     for j in range(b0, b1):
-        _fill_run(out, aux, aux_fill, view_dir, terms, texels, p, pix[j])
-        p = pix[j] + 1
+        q = pix[j]
+        if q > p:  # a gap before this point (most points have none: no call for them)
+            _fill_run(out, aux, aux_fill, view_dir, terms, texels, p, q)
+        p = q + 1
     if b1 == n:
         _fill_run(out, aux, aux_fill, view_dir, terms, texels, p, out.shape[0])
 

@@ -13,14 +13,17 @@ against numba 0.68). SUPPORTED is False where they are not as expected; jit.py t
 ordinary way (correct, only slower to compile)."""
 from __future__ import annotations
 
+CACHE_KIND = "rtlab-inner-bitcode"  # how an InnerLibrary is stored in numba's cache
+
 try:
+    import llvmlite.binding as ll
     from numba.core import compiler, compiler_machinery, typed_passes
     from numba.core.codegen import JITCodeLibrary
     from numba.core.compiler_lock import require_global_compiler_lock
 
     SUPPORTED = all(hasattr(JITCodeLibrary, name) for name in (
         "finalize", "_get_module_for_linking", "_raise_if_finalized", "serialize_using_bitcode",
-        "serialize_using_object_code", "get_pointer_to_function")) and hasattr(
+        "serialize_using_object_code", "get_pointer_to_function", "_unserialize", "_finalize_dynamic_globals")) and hasattr(
         typed_passes, "NopythonTypeInference") and hasattr(compiler.DefaultPassBuilder, "define_nopython_pipeline")
 except ImportError:  # pragma: no cover - another numba
     SUPPORTED = False
@@ -65,8 +68,30 @@ if SUPPORTED:
             self._ensure_finalized()
             return 0
 
+        def serialize_using_bitcode(self):
+            self._ensure_finalized()
+            return self.name, CACHE_KIND, self._final_module.as_bitcode()
+
         def serialize_using_object_code(self):
             return self.serialize_using_bitcode()
+
+    def _unserialize(cls, codegen, state):
+        """numba's cache loading, for an InnerLibrary too: numba would load its bitcode as an
+        ordinary library, made into machine code as it is (optimised function by function, its
+        callees not inlined) and added to the JIT engine; callers' calls to its functions (weak
+        symbols) then bind to that slow copy instead of their own optimised one (AO's ray
+        generation ran 20x slower from a warm cache than freshly compiled: report/HISTORY.md)."""
+        name, kind, data = state
+        if kind != CACHE_KIND:
+            return _plain_unserialize(cls, codegen, state)
+        library = InnerLibrary(codegen, name)
+        library._final_module = ll.parse_bitcode(data)
+        library._finalize_dynamic_globals()
+        library._finalized = True
+        return library
+
+    _plain_unserialize = JITCodeLibrary._unserialize.__func__
+    JITCodeLibrary._unserialize = classmethod(_unserialize)
 
     @compiler_machinery.register_pass(mutates_CFG=False, analysis_only=True)
     class _UseInnerLibrary(compiler_machinery.AnalysisPass):
