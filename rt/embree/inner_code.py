@@ -6,7 +6,9 @@ turned into machine code, although a kernel called only from other kernels never
 paid again for the levels below it (report/HISTORY.md, issue 44). InnerCompiler
 compiles a function into an InnerLibrary: optimised function by function (numba's own first step)
 and linked with its callees, so that a caller gets the same code to inline, and the top-level
-kernel, which Python calls, is optimised and made into machine code once, as before.
+kernel, which Python calls, is optimised and made into machine code once, as before. Loading
+from numba's cache goes through the same class: JITCodeLibrary._unserialize is wrapped so that an
+InnerLibrary comes back as one, kept out of the JIT engine.
 
 This leans on numba's code-library internals (CPUCodeLibrary's linking and finalising; written
 against numba 0.68). SUPPORTED is False where they are not as expected; jit.py then compiles callees the
@@ -23,7 +25,8 @@ try:
 
     SUPPORTED = all(hasattr(JITCodeLibrary, name) for name in (
         "finalize", "_get_module_for_linking", "_raise_if_finalized", "serialize_using_bitcode",
-        "serialize_using_object_code", "get_pointer_to_function", "_unserialize", "_finalize_dynamic_globals")) and hasattr(
+        "serialize_using_object_code", "get_pointer_to_function", "_unserialize",
+        "_finalize_dynamic_globals")) and hasattr(
         typed_passes, "NopythonTypeInference") and hasattr(compiler.DefaultPassBuilder, "define_nopython_pipeline")
 except ImportError:  # pragma: no cover - another numba
     SUPPORTED = False
