@@ -103,24 +103,36 @@ RUN = textwrap.dedent('''
 ''')
 
 
-def test_the_kernel_cache_keeps_callers_and_their_linked_callees(tmp_path):
-    """A second process loads the kernel; one whose caller's entry is gone compiles the caller
-    alone, linking the callee's code from the cache (bitcode), with the same result."""
+def _probe(tmp_path):
+    """A runner of scripts in a fresh process that imports KERNELS as probe_kernels, with a kernel
+    cache of its own in tmp_path: run(script) -> the script's last line of output, as JSON."""
     (tmp_path / "probe_kernels.py").write_text(KERNELS)
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
                PYTHONPATH=os.pathsep.join([str(tmp_path), os.getcwd(), os.environ.get("PYTHONPATH", "")]))
 
-    def run():
-        r = subprocess.run([sys.executable, "-c", RUN], capture_output=True, text=True, env=env, timeout=300)
+    def run(script):
+        r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
         assert r.returncode == 0, r.stderr
         return json.loads(r.stdout.strip().splitlines()[-1])
 
-    first = run()
-    assert first["value"] == 16.0 and {"top", "leaf__inner"} <= set(first["compiled"])
-    assert run() == {"value": 16.0, "compiled": []}
+    return run
+
+
+def _forget_top(tmp_path):
+    """The caller's cache entries gone: the next process compiles top again, leaf from the cache."""
     for f in (tmp_path / "cache").rglob("*top*"):
         f.unlink()
-    third = run()
+
+
+def test_the_kernel_cache_keeps_callers_and_their_linked_callees(tmp_path):
+    """A second process loads the kernel; one whose caller's entry is gone compiles the caller
+    alone, linking the callee's code from the cache (bitcode), with the same result."""
+    run = _probe(tmp_path)
+    first = run(RUN)
+    assert first["value"] == 16.0 and {"top", "leaf__inner"} <= set(first["compiled"])
+    assert run(RUN) == {"value": 16.0, "compiled": []}
+    _forget_top(tmp_path)
+    third = run(RUN)
     assert third["value"] == 16.0 and third["compiled"] == ["top"]
 
 
@@ -149,16 +161,10 @@ def test_a_callee_loaded_from_the_cache_stays_code_to_link(tmp_path):
     that copy, optimised function by function only: AO's ray generation ran 20x slower)."""
     if not inner_code.SUPPORTED:
         return
-    (tmp_path / "probe_kernels.py").write_text(KERNELS)
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
-               PYTHONPATH=os.pathsep.join([str(tmp_path), os.getcwd(), os.environ.get("PYTHONPATH", "")]))
-    r = subprocess.run([sys.executable, "-c", LOADED], capture_output=True, text=True, env=env, timeout=300)
-    assert r.returncode == 0, r.stderr
-    for f in (tmp_path / "cache").rglob("*top*"):
-        f.unlink()  # top compiles again, leaf comes from the cache
-    r = subprocess.run([sys.executable, "-c", LOADED], capture_output=True, text=True, env=env, timeout=300)
-    assert r.returncode == 0, r.stderr
-    assert json.loads(r.stdout.strip().splitlines()[-1]) == {"value": 16.0, "inner": True, "alone": 0}
+    run = _probe(tmp_path)
+    run(LOADED)
+    _forget_top(tmp_path)
+    assert run(LOADED) == {"value": 16.0, "inner": True, "alone": 0}
 
 
 def test_a_parallel_kernel_writes_into_arrays_of_a_record():
