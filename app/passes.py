@@ -14,6 +14,7 @@ from core.errors import UserError
 from rt import hybrid  # noqa: F401  (registers the hybrid group)
 from rt.effects import EFFECTS, PASSES
 from rt.pass_base import GBufferViewPass, PrimaryPass
+from rt.svgf import DeviceSvgfPass
 
 RASTER = ("forward",)
 # the effects (rt/effects.py), then hybrid, the reference (the ground truth) last
@@ -22,7 +23,7 @@ ALL = RASTER + RAY_TRACED + CHANNEL_VIEWS
 
 GL_PASSES = (GBufferPass, GBufferPackPass, ShadowMapPass, SSAOPass, ForwardLightingPass, ChannelViewPass,
              SvgfPass, ReprojectPass, AccumulationPass, OidnPass, DisplayPass)  # made with the GL context
-RT_PASSES = (PrimaryPass, *PASSES.values(), GBufferViewPass)
+RT_PASSES = (PrimaryPass, *PASSES.values(), GBufferViewPass, DeviceSvgfPass)
 
 
 def create_passes(ctx) -> dict:

@@ -288,6 +288,9 @@ class Renderer:
         self.profiler.begin_frame()
         names = active(pass_name, self.options)
         backend = self.ray_tracing() if any(self.passes[n].device == "rt" for n in names) else None
+        if backend is not None and "svgf" in backend.denoisers and self.options.get("svgf.device"):
+            # SVGF on the backend's device (rt/svgf.py): the frame stays there
+            names = prune(self.passes, ["svgf_device" if n == "svgf" else n for n in names])
         if backend is not None and not backend.wants_gbuffer(pass_name):  # it traces its own primary hits
             names = prune(self.passes, [n for n in names if n != "gbuffer_pack"])
         traced = [n for n in names if self.passes[n].device == "rt"]

@@ -199,6 +199,8 @@ def warm_gpu_shaders(kinds: tuple[str, ...] | None = None) -> int:
         try:
             for mode in GPU_MODES:
                 renderer.render(camera, 32, 18, mode)
+            options.set("denoise", "svgf")  # the device's SVGF kernels (rt/slang/svgf.py)
+            renderer.render(camera, 32, 18, "ao")
         except UserError as e:
             print(f"{PROG}: error: the {kind} shaders: {e}", file=sys.stderr)
             return 1

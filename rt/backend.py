@@ -49,6 +49,7 @@ class Backend:
 
     name = ""
     rays_traced = 0  # rays traced since creation (the profiler's ray count reads the difference)
+    denoisers: tuple[str, ...] = ()  # the denoisers it runs on its own device (svgf: rt/svgf.py)
 
     def wants_gbuffer(self, mode: str) -> bool:
         """Whether begin_frame takes the raster G-buffer in this pass mode (when the graph
@@ -82,6 +83,12 @@ class Backend:
 
     def drain(self) -> None:
         """Until every frame in flight is done and read (end_frame with lag 0 of the last one)."""
+
+    def svgf(self, radiance, opts, history: bool, resolved: bool) -> object:
+        """radiance (this frame's image) filtered by SVGF on the device (where "svgf" is in
+        denoisers), with the options of group svgf (rt/svgf.py); history: the last frame's
+        temporal history may be reprojected, resolved: its resolved image too."""
+        raise NotImplementedError
 
     def gbuffer_view(self, channel: str) -> object:
         """A G-buffer channel (albedo, normal, position, depth, roughness, emissive, motion) of

@@ -1,11 +1,12 @@
 """SVGF denoiser (`denoise=svgf`): spatio-temporal variance-guided filtering (Schied et al. 2017)
-of a ray-traced pass's radiance, as GL passes on the raster G-buffer, so it serves every
-backend: the first hit's emission left out (added back at the end: light sources stay sharp),
-temporal accumulation of the lighting demodulated by albedo through the motion
-vectors, with disocclusion tests (shaders/svgf_temporal.frag), an even average of a still
-view's first 1/alpha frames; the variance of that average (the temporal moments' over the
-frames it holds or, for a short history, the neighbours', svgf_variance.frag), then
-`iterations` a-trous passes with edge-stopping on depth, normal and luminance, the latter
+of a ray-traced pass's radiance, as GL passes on the raster G-buffer, so it serves every backend
+(those that filter on their own GPU run rt/svgf.py's pass instead: the same filter as compute
+kernels, shaders/rt/svgf.slang; option svgf.device): the first hit's emission left out (added
+back at the end: light sources stay sharp), temporal accumulation of the lighting demodulated by
+albedo through the motion vectors, with disocclusion tests (shaders/svgf_temporal.frag), an even
+average of a still view's first 1/alpha frames; the variance of that average (the temporal
+moments' over the frames it holds or, for a short history, the neighbours', svgf_variance.frag),
+then `iterations` a-trous passes with edge-stopping on depth, normal and luminance, the latter
 the reprojected history's (which this frame's noise has no part in: with the frame's own, the
 filter leaned towards each pixel's noise, 1-ray AO 3.8 % dark) (svgf_atrous.frag), so that the
 filter narrows as the average converges; the last multiplies the albedo back. The next frame
@@ -14,35 +15,12 @@ With `resolve`, the filtered frames are averaged over time in turn (svgf_resolve
 edges, which one jittered G-buffer sample a pixel aliases, blend as in accumulation."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
-from core.options import opt, register_group
 from core.passes import Pass
+from rt.svgf import SvgfOptions
 
 GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
-
-
-@dataclass
-class SvgfOptions:
-    iterations: int = opt(3, "a-trous iterations (5 x 5 taps, 2^i apart: 3 reach 14 pixels; the paper used 5, which "
-                          "blurred the built-in scenes' lighting more than it removed noise)", 1, 8)
-    alpha: float = opt(1 / 32, "weight of the new frame in the temporal accumulation (at least: a still view "
-                       "averages its first 1/alpha frames evenly; the paper's 0.2 keeps about 9)", 0.01, 1.0)
-    moments_alpha: float = opt(0.2, "weight of the new frame in the luminance moments (at least)", 0.01, 1.0)
-    feedback: bool = opt(False, "reproject the first a-trous iteration's output, as the paper does (blurs the "
-                         "history frame after frame), instead of the temporal average")
-    phi_color: float = opt(8.0, "luminance edge-stopping, in standard deviations of the averaged lighting", 0.1,
-                           1000.0)
-    phi_normal: float = opt(128.0, "normal edge-stopping exponent", 1.0, 1024.0)
-    phi_depth: float = opt(1.0, "depth edge-stopping, in 1 % of the depth per a-trous step", 0.01, 100.0)
-    resolve: bool = opt(True, "average the filtered frames over time (reprojected, clamped where the camera moved), "
-                        "as raw accumulation averages jittered frames: edges stop aliasing")
-    resolve_alpha: float = opt(0.1, "weight of the new frame in that average (at least)", 0.01, 1.0)
-
-
-register_group("svgf", SvgfOptions)
 
 
 class SvgfPass(Pass):

@@ -15,8 +15,10 @@ from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args, env_distribution
 from rt.slang.device import SHADER_DIR, open_device
 from rt.slang.flights import Flights
+from rt.slang.images import Image, Rgba8
 from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
+from rt.slang.svgf import DeviceSvgf
 
 MISSES = ("hit_miss", "shadow_miss")  # shaders/rt/trace.slang: miss shader 0 and 1, and its closest hit
 # an effect on the device is the shader file shaders/rt/<effect>.slang with the ray-generation
@@ -55,29 +57,9 @@ def _device_errors(method):
     return call
 
 
-class Image:
-    """A (pixels, channels) float32 image in a device buffer."""
-
-    def __init__(self, buffer, pixels: int, channels: int):
-        self.buffer, self.pixels, self.channels = buffer, pixels, channels
-
-    def to_numpy(self) -> np.ndarray:
-        return self.buffer.to_numpy().view(np.float32)[: self.pixels * self.channels].reshape(self.pixels,
-                                                                                              self.channels)
-
-
-class Rgba8:
-    """A height x width RGBA8 image in a device buffer, rows bottom-up (present's display)."""
-
-    def __init__(self, buffer, width: int, height: int):
-        self.buffer, self.width, self.height = buffer, width, height
-
-    def to_numpy(self) -> np.ndarray:
-        n = 4 * self.width * self.height
-        return self.buffer.to_numpy().view(np.uint8)[:n].reshape(self.height, self.width, 4)
-
-
 class SlangBackend(Backend):
+    denoisers = ("svgf",)  # rt/slang/svgf.py
+
     def __init__(self, kind: str = "vulkan"):
         self.name = kind
         self.device = open_device(kind)  # imports slangpy (without PyTorch: rt/slang/device.py)
@@ -86,6 +68,7 @@ class SlangBackend(Backend):
         self._pipelines: dict = {}
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
+        self._svgf = None  # DeviceSvgf, made on first use
         self._env_texels = None  # (the map's texels, their device buffer, its distribution's, its cells)
         self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
@@ -382,6 +365,13 @@ class SlangBackend(Backend):
         self.wait()
         ms = timer()
         return count, ms, logged <= capacity
+
+    @_device_errors
+    def svgf(self, radiance: Image, opts, history: bool, resolved: bool) -> Image:
+        """SVGF on the device (rt/slang/svgf.py), recorded with the frame's other work."""
+        if self._svgf is None:
+            self._svgf = DeviceSvgf(self)
+        return self._svgf.run(radiance, opts, history, resolved)
 
     @_device_errors
     def present(self, radiance, weight: float, exposure: float, display=None) -> tuple:

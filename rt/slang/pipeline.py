@@ -60,10 +60,10 @@ def _ray_tracing(device, file: str, raygen: str, misses: tuple[str, ...], closes
     return program, pipeline, table
 
 
-def _compute(device, name: str) -> tuple:
-    key = (id(device), name)
+def _compute(device, name: str, file: str) -> tuple:
+    key = (id(device), file, name)
     if key not in _COMPILED:
-        program = device.load_program(f"{name}.slang", [name])
+        program = device.load_program(file, [name])
         _COMPILED[key] = (device, program, device.create_compute_pipeline(program))
     return _COMPILED[key][1:]
 
@@ -96,10 +96,10 @@ class Pipeline:
             rt_pass.bind_pipeline(self.pipeline, self.table, self.root.object)
             rt_pass.dispatch_rays(0, [width, height, 1])
         encoder.write_timestamp(timer, 1)
-        return functools.partial(_elapsed, timer)
+        return functools.partial(elapsed, timer)
 
 
-def _elapsed(timer) -> float:
+def elapsed(timer) -> float:
     """A dispatch's GPU time in ms, once its work is done (Vulkan does not wait for the
     timestamps themselves)."""
     t0, t1 = timer.get_timestamp_results(0, 2)
@@ -107,10 +107,10 @@ def _elapsed(timer) -> float:
 
 
 class ComputePipeline:
-    """The compute kernel `name` of shaders/rt/<name>.slang (entry point `name`)."""
+    """The compute kernel `name` (its entry point) of shaders/rt/<file> (<name>.slang unless given)."""
 
-    def __init__(self, device, name: str):
-        program, self.pipeline = _compute(device, name)
+    def __init__(self, device, name: str, file: str | None = None):
+        program, self.pipeline = _compute(device, name, file or f"{name}.slang")
         self.root = _Root(device, program)
 
     def dispatch(self, encoder, width: int, height: int, values: dict) -> None:

@@ -1,0 +1,64 @@
+"""SVGF's options (`denoise=svgf`) and its pass on a ray-tracing device: where the frame's
+backend filters on its own GPU (Backend.denoisers, the Slang backends: rt/slang/svgf.py), the
+renderer runs this pass in place of the GL one (app/raster/svgf.py), on the device's G-buffer
+and radiance, so that the denoised frame is accumulated and shown without leaving the device.
+The same filter either way: shaders/rt/svgf.slang is the GL passes' code as compute kernels."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from core.options import opt, register_group
+from core.passes import Pass
+
+
+@dataclass
+class SvgfOptions:
+    iterations: int = opt(3, "a-trous iterations (5 x 5 taps, 2^i apart: 3 reach 14 pixels; the paper used 5, which "
+                          "blurred the built-in scenes' lighting more than it removed noise)", 1, 8)
+    alpha: float = opt(1 / 32, "weight of the new frame in the temporal accumulation (at least: a still view "
+                       "averages its first 1/alpha frames evenly; the paper's 0.2 keeps about 9)", 0.01, 1.0)
+    moments_alpha: float = opt(0.2, "weight of the new frame in the luminance moments (at least)", 0.01, 1.0)
+    feedback: bool = opt(False, "reproject the first a-trous iteration's output, as the paper does (blurs the "
+                         "history frame after frame), instead of the temporal average")
+    phi_color: float = opt(8.0, "luminance edge-stopping, in standard deviations of the averaged lighting", 0.1,
+                           1000.0)
+    phi_normal: float = opt(128.0, "normal edge-stopping exponent", 1.0, 1024.0)
+    phi_depth: float = opt(1.0, "depth edge-stopping, in 1 % of the depth per a-trous step", 0.01, 100.0)
+    resolve: bool = opt(True, "average the filtered frames over time (reprojected, clamped where the camera moved), "
+                        "as raw accumulation averages jittered frames: edges stop aliasing")
+    resolve_alpha: float = opt(0.1, "weight of the new frame in that average (at least)", 0.01, 1.0)
+    device: bool = opt(True, "filter on the ray-tracing backend's GPU where it has one (vulkan, cuda: the frame "
+                       "stays on the device); false, or on embree: as GL passes on the raster G-buffer")
+
+
+register_group("svgf", SvgfOptions)
+
+
+class DeviceSvgfPass(Pass):
+    """SVGF on the backend's device; the history is kept there from frame to frame, dropped as
+    the GL pass drops its own: another image, mode, option, scene or backend."""
+
+    name = "svgf_device"
+    device = "rt"
+    reads = ("radiance", "gbuffer")
+    writes = ("radiance",)
+
+    def __init__(self):
+        self.valid = self.resolved_valid = False
+        self.inputs = None
+
+    def set_scene(self, scene) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.valid = self.resolved_valid = False
+
+    def execute(self, frame) -> None:
+        opts = frame.options.group("svgf")
+        inputs = (frame.mode, frame.options.state(), id(frame.scene), id(frame.backend), frame.width, frame.height)
+        if inputs != self.inputs:
+            self.valid, self.resolved_valid, self.inputs = False, False, inputs
+        with frame.profiler.cpu("svgf"):
+            frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], opts, self.valid,
+                                                            self.resolved_valid)
+        self.valid, self.resolved_valid = True, bool(opts.resolve)

@@ -1,0 +1,118 @@
+"""SVGF on the ray-tracing device (rt/svgf.py, rt/slang/svgf.py, shaders/rt/svgf.slang) is the
+GL filter (app/raster/svgf.py) as compute kernels: given the same radiance and G-buffer, frame
+after frame with a moving camera, both give the same image to float rounding; and where the
+device filters, the frame's graph has no GL SVGF, no raster G-buffer and no read-back."""
+import os
+
+import numpy as np
+import pytest
+
+from app.camera import Camera
+from app.frame import Frame
+from app.options import Options
+from app.profiler import Profiler
+from app.raster.svgf import SvgfPass
+from app.raster.upload import Uploads, read_rgba
+from app.renderer import Renderer
+from scenes.builtin import build_builtin
+
+W, H = 64, 48
+TRACER = os.environ.get("RTLAB_TEST_GPU_TRACER", "vulkan")  # cuda on a machine with an NVIDIA GPU
+
+
+@pytest.fixture(scope="module")
+def device():
+    from rt.backends import describe_device
+
+    assert describe_device(TRACER) is not None, f"no {TRACER} device with ray tracing (scripts/setup.sh installs " \
+                                                "Mesa's lavapipe)"
+
+
+def cameras(scene):
+    base = Camera.from_view(scene.default_view(), scene.diagonal)
+    out = []
+    for k in range(4):  # still, then forward and turning a little, then still again
+        cam = base.copy()
+        step = min(k, 2)
+        cam.eye = cam.eye + 0.04 * step * (cam.target - cam.eye)
+        cam.target = cam.target + np.array([0.03 * step, 0.0, 0.0])
+        out.append(cam)
+    return out
+
+
+def gl_inputs(seen: dict) -> dict:
+    """The device's G-buffer and radiance of one frame as the GL pass's channels (rows bottom
+    first, as GL stores them; motion in GL's window coordinates, y up)."""
+    g, inputs = seen["gbuffer"], seen["inputs"]
+    covered = g["position"][:, 3] > 0
+    position = np.c_[g["position"][:, :3], g["albedo"][:, 3]]
+    motion = np.where(covered[:, None], inputs.motion(g["position"][:, :3]), 0.0)
+    face = np.c_[g["true_normal"][:, :3], covered.astype(np.float32)]
+    return {"radiance": seen["radiance"], "g_position": position, "g_normal": g["normal"],
+            "g_albedo": g["albedo"][:, :3], "g_emissive": g["emissive"][:, :3], "g_face": face,
+            "g_motion": motion[:, :2]}
+
+
+def test_the_device_filter_is_the_gl_filter(gl, device):
+    scene = build_builtin("cafe")  # emitters, sky through the windows, edges
+    opts = Options()
+    opts.apply([f"tracer={TRACER}", "denoise=svgf", "accumulate=false", "ao.rays_per_pixel=1"])
+    r = Renderer(gl, scene, opts)
+    frames = []
+    backend = r.ray_tracing()
+    original = backend.svgf
+
+    def watched(radiance, o, history, resolved):
+        n = W * H
+        backend.wait()  # the effect's work, recorded, done before its image is read here
+        seen = {"radiance": radiance.to_numpy().copy(), "inputs": backend.inputs, "history": history,
+                "gbuffer": {k: b.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4).copy()
+                            for k, b in backend.gbuffer.items()}}
+        out = original(radiance, o, history, resolved)
+        frames.append((seen, out))
+        return out
+
+    backend.svgf = watched
+    for cam in cameras(scene):
+        r.render(cam, W, H, "ao")
+        frames[-1] = (frames[-1][0], backend.to_host(frames[-1][1]).copy())
+    r.release()
+    assert [f[0]["history"] for f in frames] == [False, True, True, True]
+
+    # the GL pass on the same inputs, frame after frame
+    uploads, svgf = Uploads(gl), SvgfPass(gl)
+    worst = 0.0
+    for seen, device_out in frames:
+        inputs = seen["inputs"]
+        frame = Frame(gl, scene, None, inputs.camera, inputs.prev_camera, W, H, opts, Profiler(), None, mode="ao")
+        frame.channels = {name: uploads.upload(name, np.ascontiguousarray(a, np.float32), W, H)
+                          for name, a in gl_inputs(seen).items()}
+        svgf.execute(frame)
+        gl_out = read_rgba(frame.channels["radiance"])[..., :3].reshape(-1, 3)
+        scale = max(float(np.abs(gl_out).max()), 1e-6)
+        worst = max(worst, float(np.abs(gl_out - device_out).max()) / scale)
+        # a real image: lit, with a history that changed it (not the input passed through)
+        assert gl_out.mean() > 0.05 and not np.allclose(gl_out, seen["radiance"], atol=1e-3)
+    svgf.release()
+    uploads.release()
+    print(f"device vs GL SVGF: largest difference {worst:.2e} of the peak over {len(frames)} frames")
+    assert worst < 2e-3
+
+
+def test_where_the_device_filters_the_frame_stays_there(gl, device):
+    """tracer=vulkan: the graph runs svgf_device and neither the GL pass nor the raster G-buffer
+    it would read; svgf.device=false brings them back; Embree keeps the GL pass."""
+    scene = build_builtin("arcade")
+    for sets, expect in (((f"tracer={TRACER}",), "svgf_device"), ((f"tracer={TRACER}", "svgf.device=false"), "svgf"),
+                         ((), "svgf")):
+        opts = Options()
+        opts.apply(["denoise=svgf", *sets])
+        r = Renderer(gl, scene, opts)
+        job = r.prepare(Camera.from_view(scene.default_view(), scene.diagonal), 32, 24, "ao")
+        names = job.gl_before + job.traced + job.gl_after
+        r.compute(job)
+        r.finish(job)
+        r.release()
+        assert expect in names and ({"svgf", "svgf_device"} - {expect}).isdisjoint(names), (sets, names)
+        if expect == "svgf_device":
+            assert "gbuffer" not in names and job.present and job.readback == (), names
