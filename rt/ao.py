@@ -29,3 +29,8 @@ class AOPass(RtPass):
     def parameters(cls, opts) -> dict:
         return {"rays": opts.get("ao.rays_per_pixel"), "radius": opts.get("ao.radius"),
                 "greyscale": opts.get("ao.greyscale")}
+
+    @classmethod
+    def radiance_terms(cls, opts) -> tuple[bool, bool]:
+        """No emission; the albedo only where not greyscale (AO alone is no material's)."""
+        return not opts.get("ao.greyscale"), False

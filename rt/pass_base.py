@@ -25,6 +25,13 @@ class RtPass(Pass):
         return {}
 
     @classmethod
+    def radiance_terms(cls, opts) -> tuple[bool, bool]:
+        """What its radiance holds of the first hit's material: (its albedo as a factor, its
+        emission added): what a denoiser takes out before it filters the lighting and puts back
+        after (rt/svgf.py). Most effects' radiance is shaded light: both."""
+        return True, True
+
+    @classmethod
     def aux(cls) -> str | None:
         """Its own image's channel: what it writes besides radiance."""
         return next((c for c in cls.writes if c != "radiance"), None)

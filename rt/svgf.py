@@ -34,6 +34,14 @@ class SvgfOptions:
 register_group("svgf", SvgfOptions)
 
 
+def radiance_terms(mode: str, options) -> tuple[bool, bool]:
+    """What the radiance of a pass mode holds of the first hit's material (rt/pass_base.py)."""
+    from rt.effects import PASSES
+
+    found = PASSES.get(mode)
+    return found.radiance_terms(options) if found is not None else (True, True)
+
+
 class DeviceSvgfPass(Pass):
     """SVGF on the backend's device; the history is kept there from frame to frame, dropped as
     the GL pass drops its own: another image, mode, option, scene or backend."""
@@ -60,5 +68,6 @@ class DeviceSvgfPass(Pass):
             self.valid, self.resolved_valid, self.inputs = False, False, inputs
         with frame.profiler.cpu("svgf"):
             frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], opts, self.valid,
-                                                            self.resolved_valid)
+                                                            self.resolved_valid,
+                                                            radiance_terms(frame.mode, frame.options))
         self.valid, self.resolved_valid = True, bool(opts.resolve)

@@ -221,3 +221,40 @@ def test_frames_jitter_where_svgf_runs_or_frames_accumulate():
     assert not jitters(svgf, "forward") and not jitters(svgf, "hybrid") and not jitters(svgf, "normal")
     assert not jitters(["denoise=oidn", "accumulate=false"], "gi") and not jitters(svgf + ["jitter=false"], "gi")
     assert jitters(["accumulate=true"], "forward")
+
+
+def striped_planes():
+    """planes(H) with a floor of dark and bright stripes (albedo 0.05 and 0.9) 0.25 wide."""
+    from scenes.builder import SceneBuilder, grid, trs
+
+    b = SceneBuilder("stripes")
+    b.environment.kind = "black"
+    b.material("dark", (0.05, 0.05, 0.05), roughness=1.0)
+    b.material("bright", (0.9, 0.9, 0.9), roughness=1.0)
+    for k in range(-20, 20):
+        b.add(grid(1, 8), "dark" if k % 2 else "bright", trs((0.25 * k + 0.125, 0, 0), 0, (0.25, 1, 400 * H)))
+    b.add(grid(8, 8), "bright", trs((0, H, 0), 0, (400 * H, 1, 400 * H), rotate_x=np.pi))
+    return b.build()
+
+
+@pytest.mark.parametrize("sets", [(), ("tracer=vulkan",)])
+def test_svgf_leaves_greyscale_ao_free_of_the_albedo(gl, sets):
+    """Greyscale AO is no material's light: SVGF filters it as it is. Divided by the albedo (as
+    shaded light is, to be multiplied back), the dark stripes' AO / 0.05 leaked into the bright
+    ones' across their edges: 0.51 there against the exact 0.25."""
+    scene = striped_planes()
+    cam = camera()
+    cam.fit_clip(scene.diagonal)
+    r = make(gl, scene, AO + ("denoise=svgf",) + sets)
+    for _ in range(16):
+        r.render(cam, 96, 64, "ao")
+    ao = r.read_linear()[..., 0]
+    r.release()
+    alb = make(gl, scene)
+    alb.render(cam, 96, 64, "albedo")
+    albedo = alb.read_linear()[..., 0]
+    alb.release()
+    inner = (slice(8, -8), slice(8, -8))
+    means = [ao[inner][(albedo[inner] - a) ** 2 < 1e-4].mean() for a in (0.05, 0.9)]
+    print(f"svgf {sets}: greyscale AO on dark / bright stripes {means[0]:.4f} / {means[1]:.4f} (exact {EXACT})")
+    assert all(abs(m - EXACT) < 0.03 * EXACT for m in means), means

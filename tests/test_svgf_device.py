@@ -53,28 +53,30 @@ def gl_inputs(seen: dict) -> dict:
             "g_motion": motion[:, :2]}
 
 
-def test_the_device_filter_is_the_gl_filter(gl, device):
+# greyscale AO: the radiance is the lighting itself; GI: albedo x lighting + emission
+@pytest.mark.parametrize("mode", ["ao", "gi"])
+def test_the_device_filter_is_the_gl_filter(gl, device, mode):
     scene = build_builtin("cafe")  # emitters, sky through the windows, edges
     opts = Options()
-    opts.apply([f"tracer={TRACER}", "denoise=svgf", "accumulate=false", "ao.rays_per_pixel=1"])
+    opts.apply([f"tracer={TRACER}", "denoise=svgf", "accumulate=false", "ao.rays_per_pixel=1", "gi.rays_per_pixel=1"])
     r = Renderer(gl, scene, opts)
     frames = []
     backend = r.ray_tracing()
     original = backend.svgf
 
-    def watched(radiance, o, history, resolved):
+    def watched(radiance, o, history, resolved, terms):
         n = W * H
         backend.wait()  # the effect's work, recorded, done before its image is read here
         seen = {"radiance": radiance.to_numpy().copy(), "inputs": backend.inputs, "history": history,
                 "gbuffer": {k: b.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4).copy()
                             for k, b in backend.gbuffer.items()}}
-        out = original(radiance, o, history, resolved)
+        out = original(radiance, o, history, resolved, terms)
         frames.append((seen, out))
         return out
 
     backend.svgf = watched
     for cam in cameras(scene):
-        r.render(cam, W, H, "ao")
+        r.render(cam, W, H, mode)
         frames[-1] = (frames[-1][0], backend.to_host(frames[-1][1]).copy())
     r.release()
     assert [f[0]["history"] for f in frames] == [False, True, True, True]
@@ -84,7 +86,7 @@ def test_the_device_filter_is_the_gl_filter(gl, device):
     worst = 0.0
     for seen, device_out in frames:
         inputs = seen["inputs"]
-        frame = Frame(gl, scene, None, inputs.camera, inputs.prev_camera, W, H, opts, Profiler(), None, mode="ao")
+        frame = Frame(gl, scene, None, inputs.camera, inputs.prev_camera, W, H, opts, Profiler(), None, mode=mode)
         frame.channels = {name: uploads.upload(name, np.ascontiguousarray(a, np.float32), W, H)
                           for name, a in gl_inputs(seen).items()}
         svgf.execute(frame)
@@ -95,7 +97,7 @@ def test_the_device_filter_is_the_gl_filter(gl, device):
         assert gl_out.mean() > 0.05 and not np.allclose(gl_out, seen["radiance"], atol=1e-3)
     svgf.release()
     uploads.release()
-    print(f"device vs GL SVGF: largest difference {worst:.2e} of the peak over {len(frames)} frames")
+    print(f"{mode}: device vs GL SVGF: largest difference {worst:.2e} of the peak over {len(frames)} frames")
     assert worst < 2e-3
 
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 from core.passes import Pass
-from rt.svgf import SvgfOptions
+from rt.svgf import SvgfOptions, radiance_terms
 
 GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 
@@ -60,12 +60,14 @@ class SvgfPass(Pass):
             self.valid, self.resolved_valid, self.inputs = False, False, inputs
         for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
             t.ensure(w, h)
+        has_albedo, has_emission = (int(t) for t in radiance_terms(frame.mode, frame.options))
+        terms = {"has_albedo": has_albedo, "has_emission": has_emission}
         with frame.profiler.gpu(self.ctx, "svgf"):
             prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
             self._draw(self.temporal, prog, vao, frame, ("radiance",) + GBUFFER + ("g_motion",), {
                 "prev_color": self.history["color"], "prev_moments": self.history["moments"],
                 "prev_position": self.history["position"], "prev_normal": self.history["normal"]},
-                has_history=int(self.valid), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha))
+                has_history=int(self.valid), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha), **terms)
             prog, vao = fullscreen(self.ctx, "svgf_variance.frag")
             self._draw(self.variance, prog, vao, frame, ("g_position", "g_normal", "g_face"), {
                 "color": self.temporal["color"], "moments": self.temporal["moments"]},
@@ -79,7 +81,7 @@ class SvgfPass(Pass):
                 self._draw(target, prog, vao, frame, GBUFFER + ("radiance",), {"color": source,
                                                                              "guide": self.temporal["moments"]},
                            step=1 << i, phi_color=float(opts.phi_color), phi_normal=float(opts.phi_normal),
-                           phi_depth=float(opts.phi_depth), remodulate=int(last))
+                           phi_depth=float(opts.phi_depth), remodulate=int(last), **terms)
                 source = target["c"]
                 if i == 0:  # what the next frame reprojects: the temporal average (or the first iteration's)
                     keep, kvao = fullscreen(self.ctx, "svgf_history.frag")

@@ -40,7 +40,7 @@ class DeviceSvgf:
         inputs = self.backend.inputs
         self._kernels[key].dispatch(self.backend._encoding(), inputs.width, inputs.height, values)
 
-    def run(self, radiance, opts, history: bool, resolved: bool):
+    def run(self, radiance, opts, history: bool, resolved: bool, terms: tuple[bool, bool] = (True, True)):
         b = self.backend
         inputs = b.inputs
         w, h = inputs.width, inputs.height
@@ -54,7 +54,7 @@ class DeviceSvgf:
                 "g_prev_position": buf("history.position"), "g_prev_normal": buf("history.normal")}
         result = b._buffer("svgf.result", 3 * n, 4)
         common = {"g_gbuffer": b.gbuffer, "g_width": w, "g_height": h, "g_radiance": radiance.buffer,
-                  "g_result": result}
+                  "g_result": result, "g_has_albedo": int(terms[0]), "g_has_emission": int(terms[1])}
         flight = b._flights.current
         timer = self.timers[flight.slot]
         timer.reset()
