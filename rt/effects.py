@@ -48,3 +48,10 @@ EFFECTS = tuple(PASSES)
 AUX_CHANNEL = {name: p.aux() for name, p in PASSES.items() if p.aux() is not None}
 AUX_CHANNELS = {name: p.aux_channels for name, p in PASSES.items()}
 STREAM = {name: p.stream for name, p in PASSES.items()}
+
+
+def radiance_terms(mode: str, options) -> tuple[bool, bool]:
+    """What the radiance of a pass mode holds of the first hit's material (RtPass.radiance_terms:
+    its albedo as a factor, its emission), for the denoisers to take out and put back."""
+    found = PASSES.get(mode)
+    return found.radiance_terms(options) if found is not None else (True, True)

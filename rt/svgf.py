@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from core.options import opt, register_group
 from core.passes import Pass
+from rt.effects import radiance_terms
 
 
 @dataclass
@@ -32,14 +33,6 @@ class SvgfOptions:
 
 
 register_group("svgf", SvgfOptions)
-
-
-def radiance_terms(mode: str, options) -> tuple[bool, bool]:
-    """What the radiance of a pass mode holds of the first hit's material (rt/pass_base.py)."""
-    from rt.effects import PASSES
-
-    found = PASSES.get(mode)
-    return found.radiance_terms(options) if found is not None else (True, True)
 
 
 class DeviceSvgfPass(Pass):

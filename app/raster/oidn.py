@@ -1,7 +1,8 @@
 """Intel Open Image Denoise (`denoise=oidn`, through `pyoidn`, on the CPU): the image shown
 (the running mean while accumulating, else the frame) denoised with the raster G-buffer's
-albedo and normal as auxiliary images; the first hit's emission and the sky bypass it. Runs on the GL thread: the three images are read back,
-filtered, and the result uploaded in place of the accumulated image."""
+albedo and normal as auxiliary images; the first hit's emission and the sky bypass it. Runs on
+the GL thread: the three images are read back, filtered, and the result uploaded in place of
+the accumulated image."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -11,6 +12,7 @@ import numpy as np
 from core.errors import UserError
 from core.options import opt, register_group
 from core.passes import Pass
+from rt.effects import radiance_terms
 
 
 @dataclass
@@ -49,9 +51,13 @@ class OidnPass(Pass):
             covered = _read(frame.channels["g_face"])[..., 3:4] > 0  # no surface: no albedo, no normal
             # the first hit's emission is not filtered (light sources stay sharp and as bright):
             # left out of OIDN's input and added back, no more than the pixel's radiance
-            emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered
+            # (where the effect's radiance holds them: greyscale AO has no emission, and no albedo
+            # in it for OIDN to tell texture from noise by: its guide is then white)
+            has_albedo, has_emission = radiance_terms(frame.mode, frame.options)
+            emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered * has_emission
             color = np.ascontiguousarray(shown - emission)
-            albedo = np.ascontiguousarray(np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) * covered)
+            albedo = np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) if has_albedo else 1.0
+            albedo = np.ascontiguousarray(np.broadcast_to(albedo * covered, shown.shape), np.float32)
             normal = np.ascontiguousarray(_read(frame.channels["g_normal"])[..., :3] * covered)
             out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
             out = np.where(covered, np.maximum(out, 0.0) + emission, shown)  # the sky as it was

@@ -18,7 +18,8 @@ from __future__ import annotations
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 from core.passes import Pass
-from rt.svgf import SvgfOptions, radiance_terms
+from rt.effects import radiance_terms
+from rt.svgf import SvgfOptions
 
 GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 
