@@ -84,11 +84,10 @@ class Backend:
     def drain(self) -> None:
         """Until every frame in flight is done and read (end_frame with lag 0 of the last one)."""
 
-    def svgf(self, radiance, opts, history: bool, resolved: bool, terms: tuple[bool, bool] = (True, True)) -> object:
+    def svgf(self, radiance, run) -> object:
         """radiance (this frame's image) filtered by SVGF on the device (where "svgf" is in
-        denoisers), with the options of group svgf (rt/svgf.py); history: the last frame's
-        temporal history may be reprojected, resolved: its resolved image too; terms: what the
-        radiance holds of the first hit (RtPass.radiance_terms)."""
+        denoisers) as run (rt/svgf.py's SvgfFrame: options, iterations, what the radiance holds
+        of the first hit, whether the last frame's history may be reprojected)."""
         raise NotImplementedError
 
     def gbuffer_view(self, channel: str) -> object:

@@ -17,6 +17,7 @@ class RtPass(Pass):
     stream = 0  # its random stream: every effect's differs
     aux_channels = 1  # channels of its own image (or of the unused one, where it has none)
     lights = True  # it samples the scene's lights (its shader declares g_lights, g_far, g_ggx)
+    svgf_iterations = 3  # SVGF's a-trous iterations for it unless option svgf.iterations says (rt/svgf.py)
 
     @classmethod
     def parameters(cls, opts) -> dict:

@@ -9,13 +9,14 @@ from dataclasses import dataclass
 
 from core.options import opt, register_group
 from core.passes import Pass
-from rt.effects import radiance_terms
+from rt.effects import PASSES, radiance_terms
 
 
 @dataclass
 class SvgfOptions:
-    iterations: int = opt(3, "a-trous iterations (5 x 5 taps, 2^i apart: 3 reach 14 pixels; the paper used 5, which "
-                          "blurred the built-in scenes' lighting more than it removed noise)", 1, 8)
+    iterations: int = opt(0, "a-trous iterations (5 x 5 taps, 2^i apart: 3 reach 14 pixels; the paper used 5, which "
+                          "blurred the built-in scenes' lighting more than it removed noise); 0: the effect's own "
+                          "(AO 1, the others 3)", 0, 8)
     alpha: float = opt(1 / 32, "weight of the new frame in the temporal accumulation (at least: a still view "
                        "averages its first 1/alpha frames evenly; the paper's 0.2 keeps about 9)", 0.01, 1.0)
     moments_alpha: float = opt(0.2, "weight of the new frame in the luminance moments (at least)", 0.01, 1.0)
@@ -33,6 +34,25 @@ class SvgfOptions:
 
 
 register_group("svgf", SvgfOptions)
+
+
+@dataclass(frozen=True)
+class SvgfFrame:
+    """What one frame's filter runs with, on GL or on a device (Backend.svgf)."""
+
+    opts: SvgfOptions  # the frame's svgf group
+    iterations: int  # a-trous iterations: the option's, or the effect's own (RtPass.svgf_iterations)
+    has_albedo: bool  # the radiance holds the first hit's albedo as a factor (RtPass.radiance_terms)
+    has_emission: bool  # and its emission
+    history: bool = False  # the last frame's temporal history may be reprojected
+    resolved: bool = False  # and its resolved image
+
+
+def svgf_frame(frame, history: bool = False, resolved: bool = False) -> SvgfFrame:
+    opts = frame.options.group("svgf")
+    effect = PASSES.get(frame.mode)
+    iterations = int(opts.iterations) or (effect.svgf_iterations if effect is not None else 3)
+    return SvgfFrame(opts, iterations, *radiance_terms(frame.mode, frame.options), history, resolved)
 
 
 class DeviceSvgfPass(Pass):
@@ -60,7 +80,6 @@ class DeviceSvgfPass(Pass):
         if inputs != self.inputs:
             self.valid, self.resolved_valid, self.inputs = False, False, inputs
         with frame.profiler.cpu("svgf"):
-            frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], opts, self.valid,
-                                                            self.resolved_valid,
-                                                            radiance_terms(frame.mode, frame.options))
+            run = svgf_frame(frame, self.valid, self.resolved_valid)
+            frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], run)
         self.valid, self.resolved_valid = True, bool(opts.resolve)

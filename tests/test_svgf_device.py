@@ -64,13 +64,13 @@ def test_the_device_filter_is_the_gl_filter(gl, device, mode):
     backend = r.ray_tracing()
     original = backend.svgf
 
-    def watched(radiance, o, history, resolved, terms):
+    def watched(radiance, run):
         n = W * H
         backend.wait()  # the effect's work, recorded, done before its image is read here
-        seen = {"radiance": radiance.to_numpy().copy(), "inputs": backend.inputs, "history": history,
+        seen = {"radiance": radiance.to_numpy().copy(), "inputs": backend.inputs, "history": run.history,
                 "gbuffer": {k: b.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4).copy()
                             for k, b in backend.gbuffer.items()}}
-        out = original(radiance, o, history, resolved, terms)
+        out = original(radiance, run)
         frames.append((seen, out))
         return out
 

@@ -18,8 +18,7 @@ from __future__ import annotations
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 from core.passes import Pass
-from rt.effects import radiance_terms
-from rt.svgf import SvgfOptions
+from rt.svgf import SvgfOptions, svgf_frame
 
 GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 
@@ -61,8 +60,8 @@ class SvgfPass(Pass):
             self.valid, self.resolved_valid, self.inputs = False, False, inputs
         for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
             t.ensure(w, h)
-        has_albedo, has_emission = (int(t) for t in radiance_terms(frame.mode, frame.options))
-        terms = {"has_albedo": has_albedo, "has_emission": has_emission}
+        run = svgf_frame(frame)
+        terms = {"has_albedo": int(run.has_albedo), "has_emission": int(run.has_emission)}
         with frame.profiler.gpu(self.ctx, "svgf"):
             prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
             self._draw(self.temporal, prog, vao, frame, ("radiance",) + GBUFFER + ("g_motion",), {
@@ -75,7 +74,7 @@ class SvgfPass(Pass):
                 phi_normal=float(opts.phi_normal), alpha=float(opts.alpha), of_average=int(not opts.feedback))
             source = self.variance["c"]
             prog, vao = fullscreen(self.ctx, "svgf_atrous.frag")
-            n = int(opts.iterations)
+            n = run.iterations
             for i in range(n):
                 last = i == n - 1
                 target = self.out if last else (self.ping if i % 2 == 0 else self.pong)

@@ -367,11 +367,11 @@ class SlangBackend(Backend):
         return count, ms, logged <= capacity
 
     @_device_errors
-    def svgf(self, radiance: Image, opts, history: bool, resolved: bool, terms=(True, True)) -> Image:
+    def svgf(self, radiance: Image, run) -> Image:
         """SVGF on the device (rt/slang/svgf.py), recorded with the frame's other work."""
         if self._svgf is None:
             self._svgf = DeviceSvgf(self)
-        return self._svgf.run(radiance, opts, history, resolved, terms)
+        return self._svgf.run(radiance, run)
 
     @_device_errors
     def present(self, radiance, weight: float, exposure: float, display=None) -> tuple:

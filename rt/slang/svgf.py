@@ -40,7 +40,8 @@ class DeviceSvgf:
         inputs = self.backend.inputs
         self._kernels[key].dispatch(self.backend._encoding(), inputs.width, inputs.height, values)
 
-    def run(self, radiance, opts, history: bool, resolved: bool, terms: tuple[bool, bool] = (True, True)):
+    def run(self, radiance, run):
+        """radiance filtered as run (rt/svgf.py's SvgfFrame) says; the result's device image."""
         b = self.backend
         inputs = b.inputs
         w, h = inputs.width, inputs.height
@@ -54,7 +55,8 @@ class DeviceSvgf:
                 "g_prev_position": buf("history.position"), "g_prev_normal": buf("history.normal")}
         result = b._buffer("svgf.result", 3 * n, 4)
         common = {"g_gbuffer": b.gbuffer, "g_width": w, "g_height": h, "g_radiance": radiance.buffer,
-                  "g_result": result, "g_has_albedo": int(terms[0]), "g_has_emission": int(terms[1])}
+                  "g_result": result, "g_has_albedo": int(run.has_albedo), "g_has_emission": int(run.has_emission)}
+        opts, history, resolved = run.opts, run.history, run.resolved
         flight = b._flights.current
         timer = self.timers[flight.slot]
         timer.reset()
@@ -71,7 +73,7 @@ class DeviceSvgf:
                                             "g_phi_normal": float(opts.phi_normal), "g_alpha": float(opts.alpha),
                                             "g_of_average": int(not opts.feedback)})
         source, out = variance, buf("out")
-        iterations = int(opts.iterations)
+        iterations = run.iterations
         for i in range(iterations):
             last = i == iterations - 1
             target = out if last else buf("ping" if i % 2 == 0 else "pong")
