@@ -28,6 +28,11 @@ def device():
                                                 "Mesa's lavapipe)"
 
 
+def not_llvm(gl) -> bool:
+    """Whether GL is another driver than Mesa's llvmpipe (whose rounding lavapipe shares)."""
+    return "llvmpipe" not in gl.info.get("GL_RENDERER", "").lower()
+
+
 def cameras(scene):
     base = Camera.from_view(scene.default_view(), scene.diagonal)
     out = []
@@ -83,7 +88,7 @@ def test_the_device_filter_is_the_gl_filter(gl, device, mode):
 
     # the GL pass on the same inputs, frame after frame
     uploads, svgf = Uploads(gl), SvgfPass(gl)
-    worst = 0.0
+    worst = differ = 0.0
     for seen, device_out in frames:
         inputs = seen["inputs"]
         frame = Frame(gl, scene, None, inputs.camera, inputs.prev_camera, W, H, opts, Profiler(), None, mode=mode)
@@ -92,13 +97,22 @@ def test_the_device_filter_is_the_gl_filter(gl, device, mode):
         svgf.execute(frame)
         gl_out = read_rgba(frame.channels["radiance"])[..., :3].reshape(-1, 3)
         scale = max(float(np.abs(gl_out).max()), 1e-6)
-        worst = max(worst, float(np.abs(gl_out - device_out).max()) / scale)
+        diff = np.abs(gl_out - device_out).max(axis=1) / scale
+        worst, differ = max(worst, float(diff.max())), max(differ, float((diff > 1e-3).mean()))
         # a real image: lit, with a history that changed it (not the input passed through)
         assert gl_out.mean() > 0.05 and not np.allclose(gl_out, seen["radiance"], atol=1e-3)
     svgf.release()
     uploads.release()
-    print(f"{mode}: device vs GL SVGF: largest difference {worst:.2e} of the peak over {len(frames)} frames")
-    assert worst < 2e-3
+    print(f"{mode}: device vs GL SVGF over {len(frames)} frames: largest difference {worst:.2e} of the peak, "
+          f"{differ:.3%} of the pixels over 1e-3")
+    # the same LLVM on both sides here: equal to rounding everywhere. NVIDIA's GL and CUDA or
+    # Vulkan round apart (fast floating point), and where 1-ray AO's variance is ~0 the
+    # luminance edge-stopping (sigma 1e-6) turns an ulp of the guide into a kept or dropped tap:
+    # 2.5-3.5 % of the AO's pixels there, none of GI's (a flipped motion sign: 86 % and 27 %)
+    if not_llvm(gl):
+        assert differ < 0.05
+    else:
+        assert differ < 0.005 and worst < 2e-3
 
 
 def test_where_the_device_filters_the_frame_stays_there(gl, device):
