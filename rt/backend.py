@@ -36,9 +36,13 @@ class FrameInputs:
         now, before = (self._pixel_of(positions, cam) for cam in (self.camera, self.prev_camera))
         return np.c_[now - before, np.zeros(len(positions))]
 
+    def view_projection(self, camera) -> np.ndarray:
+        """A camera's view-projection at this frame's aspect, without the subpixel jitter."""
+        return camera.projection_matrix(self.width / max(self.height, 1)) @ camera.view_matrix()
+
     def _pixel_of(self, positions: np.ndarray, camera) -> np.ndarray:
         """Window coordinates (pixels, y up, as GL's) of points seen by a camera."""
-        m = camera.projection_matrix(self.width / max(self.height, 1)) @ camera.view_matrix()
+        m = self.view_projection(camera)
         clip = np.c_[positions, np.ones(len(positions))] @ m.T
         ndc = clip[:, :2] / np.maximum(np.abs(clip[:, 3:4]), 1e-9) * np.sign(clip[:, 3:4])
         return (ndc * 0.5 + 0.5) * [self.width, self.height]

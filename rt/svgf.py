@@ -48,16 +48,39 @@ class SvgfFrame:
     resolved: bool = False  # and its resolved image
 
 
-def svgf_frame(frame, history: bool = False, resolved: bool = False) -> SvgfFrame:
+def svgf_frame(frame, history: bool, resolved: bool) -> SvgfFrame:
     opts = frame.options.group("svgf")
     effect = PASSES.get(frame.mode)
     iterations = int(opts.iterations) or (effect.svgf_iterations if effect is not None else 3)
     return SvgfFrame(opts, iterations, *radiance_terms(frame.mode, frame.options), history, resolved)
 
 
+class SvgfHistory:
+    """Whether an SVGF pass's history (GL's or the device's) may be reprojected into this frame:
+    dropped for another image (size), mode, option or scene, and whatever else the pass names."""
+
+    def __init__(self):
+        self.valid = self.resolved_valid = False
+        self.inputs = None  # what the history was made under
+
+    def reset(self) -> None:
+        self.valid = self.resolved_valid = False
+
+    def begin(self, frame, *also) -> SvgfFrame:
+        """This frame's run, with the history it may use."""
+        inputs = (frame.mode, frame.options.state(), id(frame.scene), frame.width, frame.height, *also)
+        if inputs != self.inputs:
+            self.valid, self.resolved_valid, self.inputs = False, False, inputs
+        return svgf_frame(frame, self.valid, self.resolved_valid)
+
+    def end(self, run: SvgfFrame) -> None:
+        """The frame's history made: the next frame may reproject it (and its resolved image)."""
+        self.valid, self.resolved_valid = True, bool(run.opts.resolve)
+
+
 class DeviceSvgfPass(Pass):
     """SVGF on the backend's device; the history is kept there from frame to frame, dropped as
-    the GL pass drops its own: another image, mode, option, scene or backend."""
+    the GL pass drops its own (SvgfHistory), and for another backend."""
 
     name = "svgf_device"
     device = "rt"
@@ -65,21 +88,16 @@ class DeviceSvgfPass(Pass):
     writes = ("radiance",)
 
     def __init__(self):
-        self.valid = self.resolved_valid = False
-        self.inputs = None
+        self.history = SvgfHistory()
 
     def set_scene(self, scene) -> None:
-        self.reset()
+        self.history.reset()
 
     def reset(self) -> None:
-        self.valid = self.resolved_valid = False
+        self.history.reset()
 
     def execute(self, frame) -> None:
-        opts = frame.options.group("svgf")
-        inputs = (frame.mode, frame.options.state(), id(frame.scene), id(frame.backend), frame.width, frame.height)
-        if inputs != self.inputs:
-            self.valid, self.resolved_valid, self.inputs = False, False, inputs
         with frame.profiler.cpu("svgf"):
-            run = svgf_frame(frame, self.valid, self.resolved_valid)
+            run = self.history.begin(frame, id(frame.backend))
             frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], run)
-        self.valid, self.resolved_valid = True, bool(opts.resolve)
+        self.history.end(run)

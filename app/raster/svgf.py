@@ -18,7 +18,7 @@ from __future__ import annotations
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 from core.passes import Pass
-from rt.svgf import SvgfOptions, svgf_frame
+from rt.svgf import SvgfHistory, SvgfOptions
 
 GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 
@@ -42,32 +42,27 @@ class SvgfPass(Pass):
         self.pong = Targets(ctx, {"c": (4, "f4")})
         self.out = Targets(ctx, {"c": (4, "f4")})
         self.resolved = [Targets(ctx, {"c": (4, "f4")}), Targets(ctx, {"c": (4, "f4")})]  # this frame's, the last
-        self.valid = False
-        self.resolved_valid = False
-        self.inputs = None  # what the history was made under: mode, options and scene
+        self.kept = SvgfHistory()  # whether the history may be reprojected
 
     def set_scene(self, scene) -> None:
-        self.valid = self.resolved_valid = False
+        self.kept.reset()
 
     def reset(self) -> None:
-        self.valid = self.resolved_valid = False
+        self.kept.reset()
 
     def execute(self, frame) -> None:
-        opts = frame.options.group("svgf")
         w, h = frame.width, frame.height
-        inputs = (frame.mode, frame.options.state(), id(frame.scene))
-        if self.history.size != (w, h) or inputs != self.inputs:  # another image: no history to reuse
-            self.valid, self.resolved_valid, self.inputs = False, False, inputs
+        run = self.kept.begin(frame)
+        opts = run.opts
         for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
             t.ensure(w, h)
-        run = svgf_frame(frame)
         terms = {"has_albedo": int(run.has_albedo), "has_emission": int(run.has_emission)}
         with frame.profiler.gpu(self.ctx, "svgf"):
             prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
             self._draw(self.temporal, prog, vao, frame, ("radiance",) + GBUFFER + ("g_motion",), {
                 "prev_color": self.history["color"], "prev_moments": self.history["moments"],
                 "prev_position": self.history["position"], "prev_normal": self.history["normal"]},
-                has_history=int(self.valid), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha), **terms)
+                has_history=int(run.history), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha), **terms)
             prog, vao = fullscreen(self.ctx, "svgf_variance.frag")
             self._draw(self.variance, prog, vao, frame, ("g_position", "g_normal", "g_face"), {
                 "color": self.temporal["color"], "moments": self.temporal["moments"]},
@@ -97,10 +92,9 @@ class SvgfPass(Pass):
                 prog, vao = fullscreen(self.ctx, "svgf_resolve.frag")
                 self._draw(result, prog, vao, frame, ("g_motion",), {"current": self.out["c"],
                                                                      "previous": last["c"]},
-                           has_history=int(self.resolved_valid), alpha=float(opts.resolve_alpha))
+                           has_history=int(run.resolved), alpha=float(opts.resolve_alpha))
                 self.resolved.reverse()
-            self.resolved_valid = bool(opts.resolve)
-        self.valid = True
+        self.kept.end(run)
         frame.channels["radiance"] = result["c"]
 
     def _draw(self, target, prog, vao, frame, channels, textures: dict, **uniforms) -> None:

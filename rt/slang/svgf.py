@@ -15,10 +15,10 @@ from rt.slang.pipeline import ComputePipeline, elapsed
 FILE = "svgf.slang"
 
 
-def view_rows(camera, width: int, height: int) -> tuple:
+def view_rows(inputs, camera) -> tuple:
     """Rows 0, 1 and 3 of a camera's view-projection (no jitter): what svgf.slang's pixel_of
     needs of it."""
-    m = camera.projection_matrix(width / max(height, 1)) @ camera.view_matrix()
+    m = inputs.view_projection(camera)
     return tuple(np.asarray(m[i], np.float32) for i in (0, 1, 3))
 
 
@@ -62,7 +62,7 @@ class DeviceSvgf:
         timer.reset()
         encoder = b._encoding()
         encoder.write_timestamp(timer, 0)
-        cur, prev = view_rows(inputs.camera, w, h), view_rows(inputs.prev_camera, w, h)
+        cur, prev = view_rows(inputs, inputs.camera), view_rows(inputs, inputs.prev_camera)
         self._dispatch("svgf_temporal", 0, {
             **common, **kept, "g_motion": motion, "g_out": temporal, "g_out_moments": moments,
             "g_cur_x": cur[0], "g_cur_y": cur[1], "g_cur_w": cur[2], "g_prev_x": prev[0], "g_prev_y": prev[1],
