@@ -17,6 +17,7 @@ from app.raster.channel_view import CHANNEL_VIEWS
 from app.raster.gpu_scene import GpuScene
 from app.raster.upload import Uploads, read_rgba
 from core.errors import DeviceError, UserError
+from rt.oidn import oidn_frame
 from scenes.loaders.envmap import parse_env
 from scenes.model import Environment
 
@@ -35,6 +36,7 @@ class Job:
     gl_after: list  # passes run in finish() (GL thread), the tail included
     wanted: dict  # pass -> the channels the rest of the graph reads from it
     present: bool = False  # the backend accumulates and tone-maps on its device (the GL tail does not run)
+    oidn: object = None  # rt/oidn.py's OidnFrame where the backend denoises the image shown on its GPU
     presented: tuple | None = None  # (running mean on the device, 8-bit image or its Link, accumulation count)
     readback: tuple = ()  # channels the backend makes that the GL passes after it read
     links: dict | None = None  # shared memory (app/raster/interop.py) for readback and "display", made here
@@ -194,6 +196,23 @@ class Renderer:
             frame.interop = None
             return None
 
+    def _presents(self, backend, pass_name: str, names: list[str]) -> bool:
+        """Whether a device backend's own image ends this graph: after its traced passes only
+        the accumulation and the display, which it does on its device (Backend.present)."""
+        traced = [i for i, n in enumerate(names) if self.passes[n].device == "rt"]
+        return (backend is not None and hasattr(backend, "present") and pass_name not in CHANNEL_VIEWS
+                and bool(traced) and names[traced[-1] + 1:] == ["accumulation", "display"])
+
+    def _device_oidn(self, backend) -> bool:
+        """Whether OIDN runs on the backend's GPU this frame (option oidn.device); where a GPU
+        backend has no OIDN device, on the CPU, said once in notices."""
+        if not self.options.get("oidn.device") or not backend.on_device("oidn"):
+            note = getattr(backend, "oidn_note", None)
+            if note and self.options.get("oidn.device") and f"oidn: on the CPU ({note})" not in self.notices:
+                self.notices.append(f"oidn: on the CPU ({note})")
+            return False
+        return True
+
     def _sharing_failed(self, backend, error) -> None:
         """Sharing that worked stopped working (a driver's refusal mid-run): copies from now on
         for this backend, said once."""
@@ -288,11 +307,18 @@ class Renderer:
         self.profiler.begin_frame()
         names = active(pass_name, self.options)
         backend = self.ray_tracing() if any(self.passes[n].device == "rt" for n in names) else None
-        if backend is not None and "svgf" in backend.denoisers and self.options.get("svgf.device"):
+        if backend is not None and "svgf" in names and self.options.get("svgf.device") and backend.on_device("svgf"):
             # SVGF on the backend's device (rt/svgf.py): the frame stays there
             names = prune(self.passes, ["svgf_device" if n == "svgf" else n for n in names])
         if backend is not None and not backend.wants_gbuffer(pass_name):  # it traces its own primary hits
             names = prune(self.passes, [n for n in names if n != "gbuffer_pack"])
+        device_oidn = False
+        if backend is not None and "oidn" in names and self._device_oidn(backend):
+            # OIDN on the backend's GPU, at the end of the frame there (Backend.present), where
+            # that ends the frame (with reproject on, the GL tail runs, OIDN in it)
+            without = prune(self.passes, [n for n in names if n != "oidn"])
+            if self._presents(backend, pass_name, without):
+                names, device_oidn = without, True
         traced = [n for n in names if self.passes[n].device == "rt"]
         first = names.index(traced[0]) if traced else len(names)
         last = names.index(traced[-1]) + 1 if traced else len(names)
@@ -310,9 +336,9 @@ class Renderer:
         job = Job(frame, state, pass_name, names[:first], names[first:last], names[last:],
                   wiring(self.passes, names, self.pass_outputs))
         # a device backend's own image ends the frame there: only 8 bits a channel come back
-        if (backend is not None and hasattr(backend, "present") and job.gl_after == ["accumulation", "display"]
-                and pass_name not in CHANNEL_VIEWS):
+        if self._presents(backend, pass_name, names):
             job.present, job.gl_after = True, []
+            job.oidn = oidn_frame(pass_name, self.options) if device_oidn else None
         made = {c for n in job.traced for c in self.passes[n].writes}
         read = {c for n in job.gl_after for c in self.passes[n].reads}
         job.readback = tuple(sorted(made & read))
@@ -399,7 +425,7 @@ class Renderer:
             weight, count = 1.0 / (count + 1), count + 1
         shared = (job.links or {}).get("display")
         mean, display = frame.backend.present(frame.channels["radiance"], weight, float(self.options.get("exposure")),
-                                              shared.device if shared is not None else None)
+                                              shared.device if shared is not None else None, oidn=job.oidn)
         if shared is not None:  # GL takes the image from the memory it shares (finish)
             return mean, display, count
         with self.profiler.cpu("device_readback"):  # the one transfer of the frame: 8 bits a channel

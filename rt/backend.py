@@ -53,7 +53,12 @@ class Backend:
 
     name = ""
     rays_traced = 0  # rays traced since creation (the profiler's ray count reads the difference)
-    denoisers: tuple[str, ...] = ()  # the denoisers it runs on its own device (svgf: rt/svgf.py)
+    denoisers: tuple[str, ...] = ()  # the denoisers it may run on its own device (svgf: rt/svgf.py; oidn: rt/oidn.py)
+
+    def on_device(self, denoiser: str) -> bool:
+        """Whether it runs this denoiser (option denoise) on its own device, here: svgf through
+        svgf(), oidn through present()."""
+        return denoiser in self.denoisers
 
     def wants_gbuffer(self, mode: str) -> bool:
         """Whether begin_frame takes the raster G-buffer in this pass mode (when the graph

@@ -1,27 +1,15 @@
-"""Intel Open Image Denoise (`denoise=oidn`, through `pyoidn`, on the CPU): the image shown
+"""Intel Open Image Denoise (`denoise=oidn`, through `pyoidn`, on the CPU; rt/oidn.py's options): the image shown
 (the running mean while accumulating, else the frame) denoised with the raster G-buffer's
 albedo and normal as auxiliary images; the first hit's emission and the sky bypass it. Runs on
 the GL thread: the three images are read back, filtered, and the result uploaded in place of
 the accumulated image."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from core.errors import UserError
-from core.options import opt, register_group
 from core.passes import Pass
-from rt.effects import radiance_terms
-
-
-@dataclass
-class OidnOptions:
-    quality: str = opt("high", "OIDN's filter quality (fast is several times quicker, a little softer)",
-                       choices=("high", "balanced", "fast"))
-
-
-register_group("oidn", OidnOptions)
+from rt.oidn import OidnOptions, oidn_frame
 
 
 def _read(tex) -> np.ndarray:
@@ -45,7 +33,7 @@ class OidnPass(Pass):
             import pyoidn
         except ImportError as e:  # a declared dependency: only a broken install lacks it
             raise UserError(f"denoise=oidn needs the pyoidn package ({e})") from None
-        quality = frame.options.group("oidn").quality
+        run = oidn_frame(frame.mode, frame.options)
         with frame.profiler.cpu("oidn"):
             shown = np.maximum(_read(frame.channels["accumulated"])[..., :3], 0.0)
             covered = _read(frame.channels["g_face"])[..., 3:4] > 0  # no surface: no albedo, no normal
@@ -53,13 +41,12 @@ class OidnPass(Pass):
             # left out of OIDN's input and added back, no more than the pixel's radiance
             # (where the effect's radiance holds them: greyscale AO has no emission, and no albedo
             # in it for OIDN to tell texture from noise by: its guide is then white)
-            has_albedo, has_emission = radiance_terms(frame.mode, frame.options)
-            emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered * has_emission
+            emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered * run.has_emission
             color = np.ascontiguousarray(shown - emission)
-            albedo = np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) if has_albedo else 1.0
+            albedo = np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) if run.has_albedo else 1.0
             albedo = np.ascontiguousarray(np.broadcast_to(albedo * covered, shown.shape), np.float32)
             normal = np.ascontiguousarray(_read(frame.channels["g_normal"])[..., :3] * covered)
-            out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
+            out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=run.quality)
             out = np.where(covered, np.maximum(out, 0.0) + emission, shown)  # the sky as it was
             w, h = frame.width, frame.height
             if self.out is None or self.out.size != (w, h):

@@ -58,7 +58,7 @@ def _device_errors(method):
 
 
 class SlangBackend(Backend):
-    denoisers = ("svgf",)  # rt/slang/svgf.py
+    denoisers = ("svgf", "oidn")  # rt/slang/svgf.py; rt/slang/oidn.py where OIDN has a GPU device (on_device)
 
     def __init__(self, kind: str = "vulkan"):
         self.name = kind
@@ -69,6 +69,8 @@ class SlangBackend(Backend):
         self._buffers: dict = {}  # name -> (buffer, size): reused from frame to frame
         self._staging: dict = {}  # host copies of the raster G-buffer, reused (_unpack)
         self._svgf = None  # DeviceSvgf, made on first use
+        self._oidn = None  # DeviceOidn, made when first asked for (on_device)
+        self.oidn_note: str | None = None  # why OIDN has no device here, once asked
         self._env_texels = None  # (the map's texels, their device buffer, its distribution's, its cells)
         self._encoder = None  # the work being recorded, submitted before the host reads or waits (_submit)
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
@@ -154,8 +156,14 @@ class SlangBackend(Backend):
 
     def cuda_context(self) -> int:
         """The CUcontext of the CUDA device (its GL interop calls run in it)."""
-        handles = {str(h.type).split(".")[-1]: h.value for h in self.device.native_handles}
-        return int(handles["CUcontext"])
+        return int(self._native_handles()["CUcontext"])
+
+    def cuda_ordinal(self) -> int:
+        """The CUDA device's ordinal (OIDN's device ID)."""
+        return int(self._native_handles()["CUdevice"])
+
+    def _native_handles(self) -> dict:
+        return {str(h.type).split(".")[-1]: h.value for h in self.device.native_handles}
 
     def wait(self) -> None:
         """Until the device has done the frame's work so far, and any upload (copy_from_numpy
@@ -373,12 +381,27 @@ class SlangBackend(Backend):
             self._svgf = DeviceSvgf(self)
         return self._svgf.run(radiance, run)
 
+    def on_device(self, denoiser: str) -> bool:
+        if denoiser != "oidn":
+            return denoiser in self.denoisers
+        if self._oidn is None and self.oidn_note is None:
+            from rt.slang.oidn import DeviceOidn
+            from rt.slang.oidn_library import OidnError
+
+            try:
+                self._oidn = DeviceOidn(self)
+            except OidnError as e:
+                self.oidn_note = str(e)
+        return self._oidn is not None
+
     @_device_errors
-    def present(self, radiance, weight: float, exposure: float, display=None) -> tuple:
+    def present(self, radiance, weight: float, exposure: float, display=None, oidn=None) -> tuple:
         """The end of the frame on the device: the running mean of radiance (weight: 1 / (frames
         so far + 1), 1 restarts it, 0 keeps it) and its tone-mapped 8-bit RGBA (rows bottom-up,
-        as GL stores a texture), into display where given (a buffer shared with GL). Returns
-        both as device images: only the 8-bit one need leave the device (to_host)."""
+        as GL stores a texture), into display where given (a buffer shared with GL); with oidn
+        (rt/oidn.py's OidnFrame, where on_device("oidn")), the mean denoised by OIDN on the GPU
+        (rt/slang/oidn.py) and shown instead. Returns the image shown and the 8-bit one as
+        device images: only the 8-bit one need leave the device (to_host)."""
         inputs = self.inputs
         w, h = inputs.width, inputs.height
         mean = self._buffer("accumulated", w * h, 16)
@@ -386,7 +409,10 @@ class SlangBackend(Backend):
         self._compute("present", w, h, {"g_radiance": radiance.buffer, "g_accumulated": mean, "g_display": display,
                                         "g_width": w, "g_height": h, "g_weight": float(weight),
                                         "g_exposure": float(exposure)})
-        return Image(mean, w * h, 4), Rgba8(display, w, h)
+        shown = Image(mean, w * h, 4)
+        if oidn is not None:
+            shown, display = self._oidn.run(shown, oidn, exposure, display)
+        return shown, Rgba8(display, w, h)
 
     @_device_errors
     def gbuffer_view(self, channel: str) -> np.ndarray:
@@ -413,5 +439,9 @@ class SlangBackend(Backend):
 
     def close(self) -> None:
         self._submit()
+        if self._oidn is not None:
+            self.device.wait()
+            self._oidn.close()
+            self._oidn = None
         self.scene = None
         self._buffers.clear()
