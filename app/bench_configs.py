@@ -28,6 +28,7 @@ DENOISERS = ("svgf", "oidn")
 # profiler entries that move images between GL, the host and a ray-tracing device
 TRANSFERS = ("gbuffer_readback", "gbuffer_share", "device_readback", "upload", "share")
 DENOISED = ("gi_1", "gi_shadows", "ao_1", "shadows_one")
+FLICKER_FRAMES = 8  # a denoised configuration's flicker: over its last 8 frames shown (still camera)
 DENOISE_FRAMES = 16  # a denoised configuration's image: its 16th frame (SVGF's history fills), against 16 accumulated
 ALL_CONFIGS = (list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
                + [f"{c}+{d}" for c in DENOISED for d in DENOISERS])

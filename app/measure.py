@@ -11,6 +11,7 @@ import numpy as np
 from app.bench_configs import (
     CONFIGS,
     DENOISE_FRAMES,
+    FLICKER_FRAMES,
     PATH_CHECKS,
     PATH_CONFIG,
     PATH_VARIANTS,
@@ -92,6 +93,21 @@ def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets:
         renderer.render(camera, *size, pass_name)
     return renderer.read_display()
 
+def render_frames(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int, keep: int,
+                  base: tuple = (), accumulate: bool = True) -> list[np.ndarray]:
+    """The displayed images of the last `keep` of `frames` frames (render_image's, each)."""
+    opts = Options()
+    opts.apply(list(base) + sets + [f"accumulate={'true' if accumulate else 'false'}"])
+    renderer.options, renderer.seed = opts, 0
+    renderer.reset()
+    shown = []
+    for k in range(frames):
+        renderer.render(camera, *size, pass_name)
+        if k >= frames - keep:
+            shown.append(renderer.read_display())
+    return shown
+
+
 def reference_batch(renderer: Renderer, camera: Camera, size, first: int, count: int, base: tuple = ()) -> np.ndarray:
     """The sum of the reference path tracer's frames first .. first + count - 1 (seed 1), linear
     RGB, float64: frames are numbered as one run numbers them, so the sums of batches made by any
@@ -121,14 +137,23 @@ def denoised_images(renderer: Renderer, camera: Camera, size, name: str, denoise
                     base: tuple = ()) -> dict:
     """A one-sample configuration's pass converged over converged_frames accumulated frames
     (seed 1), its raw frames (1 and DENOISE_FRAMES accumulated) and each denoiser's
-    DENOISE_FRAMES-th frame (its own history built over the ones before)."""
+    DENOISE_FRAMES-th frame (its own history built over the ones before); under "flicker", the
+    flicker (quality.flicker) of the last FLICKER_FRAMES frames shown of the raw frames
+    accumulated ("raw"), of the raw frames alone ("raw_1") and of each denoiser's."""
+    from app.quality import flicker
+
     pass_name, sets = CONFIGS[name]
     out = {"converged": render_image(renderer, camera, size, pass_name, sets, converged_frames, seed=1, base=base)}
-    for n in (1, DENOISE_FRAMES):
-        out[f"raw_{n}"] = render_image(renderer, camera, size, pass_name, sets, n, base=base)
+    out["raw_1"] = render_image(renderer, camera, size, pass_name, sets, 1, base=base)
+    shown = render_frames(renderer, camera, size, pass_name, sets, DENOISE_FRAMES, FLICKER_FRAMES, base=base)
+    out[f"raw_{DENOISE_FRAMES}"], out["flicker"] = shown[-1], {"raw": flicker(shown)}
+    alone = render_frames(renderer, camera, size, pass_name, sets, FLICKER_FRAMES, FLICKER_FRAMES, base=base,
+                          accumulate=False)
+    out["flicker"]["raw_1"] = flicker(alone)
     for d in denoisers:
-        out[d] = render_image(renderer, camera, size, pass_name, sets + [f"denoise={d}"], DENOISE_FRAMES, base=base,
-                              accumulate=False)
+        shown = render_frames(renderer, camera, size, pass_name, sets + [f"denoise={d}"], DENOISE_FRAMES,
+                              FLICKER_FRAMES, base=base, accumulate=False)
+        out[d], out["flicker"][d] = shown[-1], flicker(shown)
     return out
 
 

@@ -28,12 +28,8 @@ def psnr(reference: np.ndarray, test: np.ndarray) -> float:
 def mean_bias(reference: np.ndarray, test: np.ndarray) -> float:
     """The test image's mean brightness against the reference's, relative, in linear light (two
     sRGB uint8 images; the sRGB curve undone): a filter's bias, apart from its noise."""
-    def linear(image):
-        c = image[..., :3].astype(np.float64) / 255.0
-        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).mean()
-
-    ref = linear(reference)
-    return float((linear(test) - ref) / ref) if ref > 0 else 0.0
+    ref = _linear(reference).mean()
+    return float((_linear(test).mean() - ref) / ref) if ref > 0 else 0.0
 
 
 def _flip(reference: np.ndarray, test: np.ndarray, magma: bool):
@@ -43,6 +39,28 @@ def _flip(reference: np.ndarray, test: np.ndarray, magma: bool):
     tst = np.ascontiguousarray(test[..., :3].astype(np.float32) / 255.0)
     image, value, _ = flip.evaluate(ref, tst, "LDR", applyMagma=magma)
     return image, float(value)
+
+
+def _linear(image: np.ndarray) -> np.ndarray:
+    """An sRGB uint8 image's RGB in linear light (the sRGB curve undone), float64."""
+    c = image[..., :3].astype(np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def rel_mse(reference: np.ndarray, test: np.ndarray) -> float:
+    """Relative mean squared error in linear light, as denoising papers report it: each
+    channel's squared error over the reference's square (+0.01, so that black does not blow up):
+    bias and noise together, weighted alike in dark and bright regions."""
+    r, t = _linear(reference), _linear(test)
+    return float(np.mean((t - r) ** 2 / (r * r + 0.01)))
+
+
+def flicker(images: list[np.ndarray]) -> float:
+    """Temporal flicker of a still view: the mean absolute change of a pixel's displayed
+    luminance (0..1) from one frame to the next, over consecutive sRGB uint8 frames."""
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    y = [image[..., :3].astype(np.float64) @ lum / 255.0 for image in images]
+    return float(np.mean([np.abs(b - a).mean() for a, b in zip(y, y[1:])])) if len(y) > 1 else 0.0
 
 
 def mean_flip(reference: np.ndarray, test: np.ndarray) -> float:

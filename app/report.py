@@ -6,6 +6,7 @@ import html
 import json
 from pathlib import Path
 
+from app.bench_configs import FLICKER_FRAMES
 from app.image_io import write_text
 from app.machine import machine_label
 from app.recommend import STUDY, recommend, rule_text
@@ -131,10 +132,19 @@ def denoise_rows(doc: dict) -> list[list[str]]:
             continue
         denoiser = r["config"].partition("+")[2]
         raw_n = d[f"flip_raw_{d['frames']}"]
-        bias = d.get("bias")  # absent in results made before it was measured
-        rows.append([r["scene"], r["config"], f"{r['passes_ms'].get(denoiser, float('nan')):.1f}",
+        n = d["frames"]
+
+        def got(key, fmt):  # absent in results made before it was measured
+            return "–" if d.get(key) is None else fmt(d[key])
+
+        # on a GPU backend the denoiser's GPU time (its host-side pass only records the work)
+        ms = r["passes_ms"].get(f"{denoiser}_gpu", r["passes_ms"].get(denoiser, float("nan")))
+        rows.append([r["scene"], r["config"], f"{ms:.1f}",
                      f"{d['flip_raw_1']:.4f}", f"{raw_n:.4f}", f"{d['flip']:.4f}",
-                     "–" if bias is None else f"{100 * bias:+.1f} %",
+                     got("bias", lambda v: f"{100 * v:+.1f} %"),
+                     got(f"rel_mse_raw_{n}", lambda v: f"{v:.4f}"), got("rel_mse", lambda v: f"{v:.4f}"),
+                     got("flicker_raw_1", lambda v: f"{v:.4f}"), got(f"flicker_raw_{n}", lambda v: f"{v:.4f}"),
+                     got("flicker", lambda v: f"{v:.4f}"),
                      "yes" if d["flip"] <= raw_n else "no"])
     return rows
 
@@ -327,14 +337,20 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
         first = next(r["denoise"] for r in doc["results"] if r.get("denoise"))
         n = first["frames"]
         dh = ["scene", "config", "denoiser ms", "FLIP 1 raw frame", f"FLIP {n} raw frames",
-              f"FLIP denoised (frame {n})", "bias denoised", f"denoised ≤ {n} raw"]
+              f"FLIP denoised (frame {n})", "bias denoised", f"relMSE {n} raw", "relMSE denoised",
+              "flicker raw", f"flicker {n} raw", "flicker denoised", f"denoised ≤ {n} raw"]
         size = "×".join(str(v) for v in s["quality_size"])
         md += ["## Denoisers", "", "Each pass's image against the same pass converged over "
                f"{first['converged_frames']} accumulated frames (mean FLIP, {size}): one raw frame, {n} "
                f"accumulated raw frames, and the {n}th frame of a still camera denoised without accumulation (SVGF's "
                "history built over the frames before; OIDN filters each frame alone). The bias is the denoised "
-               "image's mean brightness against the converged one's (linear light), apart from its noise. The "
-               f"denoiser's time is its own pass at {s['size'][0]}×{s['size'][1]}.", ""] + _table(dh, drows) + [""]
+               "image's mean brightness against the converged one's (linear light), apart from its noise; the "
+               "relative MSE (linear light, each channel's squared error over the converged value's square + 0.01) "
+               "holds both. The flicker is the mean change of a pixel's displayed luminance (0-1) from frame to "
+               f"frame over the last {FLICKER_FRAMES} frames of the still camera: raw frames alone, {n} raw frames "
+               "accumulated, denoised. The "
+               f"denoiser's time is its own pass at {s['size'][0]}×{s['size'][1]} (its GPU time on a GPU "
+               "backend).", ""] + _table(dh, drows) + [""]
     prows = path_rows(doc)
     if prows:
         first = next(i["path"] for i in doc["scenes"].values() if i.get("path"))

@@ -12,7 +12,7 @@ from collections import deque
 import numpy as np
 
 from app.bench_configs import DENOISE_FRAMES
-from app.quality import flip_map, mean_bias, mean_flip, psnr, rmse, to_display
+from app.quality import flip_map, mean_bias, mean_flip, psnr, rel_mse, rmse, to_display
 
 BATCHES_PER_WORKER = 4
 
@@ -295,6 +295,7 @@ class Sweep:
         converged = images["converged"]
         self.write_png(self.images / f"{work.name}_{name}_converged.png", converged)
         raw = {n: images[f"raw_{n}"] for n in (1, DENOISE_FRAMES)}
+        flickers = images["flicker"]
         for d in unit["denoisers"]:
             config, image = f"{name}+{d}", images[d]
             self.write_png(self.images / f"{work.name}_{config}.png", image)
@@ -304,7 +305,11 @@ class Sweep:
                    "flip_raw_1": mean_flip(converged, raw[1]),
                    f"flip_raw_{DENOISE_FRAMES}": mean_flip(converged, raw[DENOISE_FRAMES]),
                    "bias": mean_bias(converged, image),
-                   f"bias_raw_{DENOISE_FRAMES}": mean_bias(converged, raw[DENOISE_FRAMES])}
+                   f"bias_raw_{DENOISE_FRAMES}": mean_bias(converged, raw[DENOISE_FRAMES]),
+                   "rel_mse": rel_mse(converged, image),
+                   f"rel_mse_raw_{DENOISE_FRAMES}": rel_mse(converged, raw[DENOISE_FRAMES]),
+                   "flicker": flickers[d], f"flicker_raw_{DENOISE_FRAMES}": flickers["raw"],
+                   "flicker_raw_1": flickers["raw_1"]}
             work.info.setdefault("_denoise", {})[config] = rec
             self.progress.update(1, f"{work.name} {config}: FLIP {rec['flip']:.4f}, bias {100 * rec['bias']:+.1f} % "
                                     f"(raw: 1 frame {rec['flip_raw_1']:.4f}, {DENOISE_FRAMES} frames "

@@ -169,8 +169,26 @@ def test_shot_and_bench_take_the_denoisers(tmp_path):
         d = row["denoise"]
         assert d["frames"] == 16 and 0 < d["flip"] < d["flip_raw_1"]
         assert abs(d["bias"]) < 0.2 and abs(d["bias_raw_16"]) < 0.2  # a quick run: small images, few frames
+        assert 0 < d["rel_mse"] < d["rel_mse_raw_16"] * 4  # one denoised frame against 16 raw
+        # a single frame a time flickers most; the denoised frames change less than the raw ones
+        assert 0 < d["flicker"] < d["flicker_raw_1"] and 0 < d["flicker_raw_16"] < d["flicker_raw_1"]
     report = (tmp_path / "b" / "report.md").read_text()
-    assert "## Denoisers" in report and "bias denoised" in report
+    assert "## Denoisers" in report and "bias denoised" in report and "flicker denoised" in report
+
+
+def test_relative_mse_and_flicker():
+    from app.quality import flicker, rel_mse
+
+    grey = np.full((4, 4, 3), 128, np.uint8)
+    lighter = grey + np.uint8(10)
+    assert rel_mse(grey, grey) == 0.0 and rel_mse(grey, lighter) > 0
+    # linear light, over the reference's square + 0.01: sRGB 128 is 0.2158 linear
+    assert rel_mse(grey * 0, grey) == pytest.approx(0.2158 ** 2 / 0.01, rel=1e-3)
+    assert rel_mse(grey, grey * 0) == pytest.approx(0.2158 ** 2 / (0.2158 ** 2 + 0.01), rel=1e-3)
+    assert flicker([grey, grey, grey]) == 0.0
+    # alternating by 10 levels of 255 in every channel: a luminance change of 10/255 each frame
+    assert flicker([grey, lighter, grey, lighter]) == pytest.approx(10 / 255)
+    assert flicker([grey]) == 0.0
 
 
 def test_bias_is_the_mean_brightness_in_linear_light():
