@@ -60,7 +60,7 @@ def flicker(images: list[np.ndarray]) -> float:
     luminance (0..1) from one frame to the next, over consecutive sRGB uint8 frames."""
     lum = np.array([0.2126, 0.7152, 0.0722])
     y = [image[..., :3].astype(np.float64) @ lum / 255.0 for image in images]
-    return float(np.mean([np.abs(b - a).mean() for a, b in zip(y, y[1:])])) if len(y) > 1 else 0.0
+    return float(np.mean([np.abs(b - a).mean() for a, b in zip(y, y[1:], strict=False)])) if len(y) > 1 else 0.0
 
 
 def mean_flip(reference: np.ndarray, test: np.ndarray) -> float:

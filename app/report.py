@@ -134,7 +134,7 @@ def denoise_rows(doc: dict) -> list[list[str]]:
         raw_n = d[f"flip_raw_{d['frames']}"]
         n = d["frames"]
 
-        def got(key, fmt):  # absent in results made before it was measured
+        def got(key, fmt, d=d):  # absent in results made before it was measured
             return "–" if d.get(key) is None else fmt(d[key])
 
         # on a GPU backend the denoiser's GPU time (its host-side pass only records the work)
