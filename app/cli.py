@@ -165,6 +165,13 @@ def cmd_devices(args) -> int:
                 r["gl_sharing"] = describe(ctx, r["name"])
                 r["interop"] = r["gl_sharing"].startswith("shared memory")  # zero-copy with OpenGL
         ctx.release()
+    from rt.slang.oidn import missing
+
+    oidn_gpu = missing()
+    for r in rows:  # the denoisers on a GPU backend's own device (rt/svgf.py, rt/oidn.py)
+        if r["available"] and r["name"] != "embree":
+            r["denoisers"] = "svgf on the device; oidn " + ("on the GPU (OIDN's CUDA device)" if oidn_gpu is None
+                                                            else f"on the CPU ({oidn_gpu})")
     auto = resolve("auto")
     if args.json:
         print(json.dumps({"gl": gl, "backends": rows, "auto": auto}, indent=2))
@@ -178,6 +185,8 @@ def cmd_devices(args) -> int:
         if "gl_sharing" in r:
             print(f"  {'':<7} {'':<15} interop: {'yes' if r['interop'] else 'no'} (OpenGL <-> {r['name']}: "
                   f"{r['gl_sharing']})")
+        if "denoisers" in r:
+            print(f"  {'':<7} {'':<15} denoisers: {r['denoisers']}")
     print(f"tracer=auto picks: {auto}" + ("" if auto != "embree" else " (no GPU with ray tracing here)"))
     return 0
 

@@ -170,6 +170,10 @@ def test_devices_say_whether_gl_interop_is_there():
                          timeout=300)
     rows = {r["name"]: r for r in json.loads(doc.stdout)["backends"]}
     assert rows["vulkan"]["interop"] is True and "interop" not in rows["embree"]
+    # where each denoiser runs on a GPU backend: OIDN has no GPU device for lavapipe
+    assert rows["vulkan"]["denoisers"].startswith("svgf on the device; oidn on ") and "denoisers" not in rows["embree"]
+    if "llvmpipe" in rows["vulkan"]["device"]:
+        assert "oidn on the CPU" in text.stdout
 
 
 def test_a_first_gpu_frame_says_it_compiles_shaders(tmp_path):

@@ -28,13 +28,23 @@ FILE = "oidn.slang"
 IMAGES = ("color", "albedo", "normal", "output")  # OIDN's names; "output" is g_denoised
 
 
+def missing(ordinal: int = 0) -> str | None:
+    """Why OIDN has no GPU device for CUDA device `ordinal` here, or None where it has one."""
+    try:
+        if library().IsCUDADeviceSupported(ordinal):
+            return None
+    except OidnError as e:
+        return str(e)
+    return "OIDN has no GPU device here: its CUDA device needs an NVIDIA GPU"
+
+
 class DeviceOidn:
     def __init__(self, backend):
         self.backend, self.lib = backend, library()
         self.cuda = backend.name == "cuda"
         ordinal = backend.cuda_ordinal() if self.cuda else 0
-        if not self.lib.IsCUDADeviceSupported(ordinal):
-            raise OidnError("OIDN has no GPU device here (its CUDA device needs an NVIDIA GPU)")
+        if missing(ordinal) is not None:
+            raise OidnError(missing(ordinal))
         self.cu = None
         if self.cuda:
             try:
