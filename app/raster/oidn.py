@@ -2,7 +2,8 @@
 (the running mean while accumulating, else the frame) denoised with the raster G-buffer's
 albedo and normal as auxiliary images; the first hit's emission and the sky bypass it. Runs on
 the GL thread: the three images are read back, filtered, and the result uploaded in place of
-the accumulated image."""
+the accumulated image. Where the ray-tracing backend runs OIDN on its GPU (option oidn.device,
+rt/slang/oidn.py), the renderer leaves this pass out."""
 from __future__ import annotations
 
 import numpy as np
