@@ -165,9 +165,9 @@ def cmd_devices(args) -> int:
                 r["gl_sharing"] = describe(ctx, r["name"])
                 r["interop"] = r["gl_sharing"].startswith("shared memory")  # zero-copy with OpenGL
         ctx.release()
-    from rt.slang.oidn import missing
+    from rt.backends import oidn_gpu_missing
 
-    oidn_gpu = missing()
+    oidn_gpu = oidn_gpu_missing()
     for r in rows:  # the denoisers on a GPU backend's own device (rt/svgf.py, rt/oidn.py)
         if r["available"] and r["name"] != "embree":
             r["denoisers"] = "svgf on the device; oidn " + ("on the GPU (OIDN's CUDA device)" if oidn_gpu is None

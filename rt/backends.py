@@ -94,6 +94,14 @@ def describe_device(kind: str):
     return describe(kind)
 
 
+def oidn_gpu_missing() -> str | None:
+    """Why OIDN has no GPU device for the GPU backends here (rt/slang/oidn.py), or None where
+    it has one (OIDN's CUDA device: an NVIDIA GPU)."""
+    from rt.slang.oidn import missing
+
+    return missing()
+
+
 def ray_log(capacity: int):
     """A log of the rays a frame traces on Embree (rt/embree/tracer.py RayLog), to set as its
     tracer's `recording` (bench --perf replays it)."""
