@@ -82,3 +82,38 @@ def test_emitters_and_sky_bypass_the_gpu_filter(gl, device):
         assert sky.any() or lit.any(), name
         np.testing.assert_array_equal(image[sky], raw[sky])
         assert np.all(image[lit][..., :3] >= emissive[lit] * 0.999), name
+
+
+def test_a_failing_gpu_filter_falls_back_to_the_cpu(gl, device):
+    """OIDN's GPU device failing mid-run (a driver error): that frame is shown undenoised, the
+    next ones are denoised on the CPU, said once; nothing crashes."""
+    from rt.slang.oidn_library import OidnError
+
+    class Failing:
+        def run(self, *args):
+            raise OidnError("out of memory")
+
+    scene = build_builtin("arcade")
+    opts = Options()
+    opts.apply([f"tracer={TRACER}", "accumulate=false", "denoise=oidn"])
+    r = Renderer(gl, scene, opts)
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    r.options.set("denoise", "off")
+    r.render(cam, W, H, "ao")
+    raw = r.read_linear()
+    r.rt._oidn, r.rt.oidn_note = Failing(), None  # as if OIDN's GPU device had opened
+    r.options.set("denoise", "oidn")
+    names = []
+    for _ in range(2):
+        job = r.prepare(cam, W, H, "ao")
+        names.append(job.gl_before + job.traced + job.gl_after)
+        r.compute(job)
+        r.finish(job)
+        if not names[1:]:
+            failed = r.read_linear()
+    notices = list(r.notices)
+    r.release()
+    assert "oidn" not in names[0] and "oidn" in names[1], names
+    np.testing.assert_array_equal(failed, raw)
+    assert [n for n in notices if n.startswith("oidn: on the CPU")] == \
+        ["oidn: on the CPU (OIDN's GPU device failed: out of memory)"], notices

@@ -410,8 +410,14 @@ class SlangBackend(Backend):
                                         "g_width": w, "g_height": h, "g_weight": float(weight),
                                         "g_exposure": float(exposure)})
         shown = Image(mean, w * h, 4)
-        if oidn is not None:
-            shown, display = self._oidn.run(shown, oidn, exposure, display)
+        if oidn is not None and self._oidn is not None:
+            from rt.slang.oidn_library import OidnError
+
+            try:
+                shown, display = self._oidn.run(shown, oidn, exposure, display)
+            except OidnError as e:  # this frame shown as it is; the next ones denoised on the CPU (oidn_note)
+                self.oidn_note = f"OIDN's GPU device failed: {e}"
+                self._oidn = None
         return shown, Rgba8(display, w, h)
 
     @_device_errors
