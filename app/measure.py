@@ -93,6 +93,7 @@ def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets:
         renderer.render(camera, *size, pass_name)
     return renderer.read_display()
 
+
 def render_frames(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int, keep: int,
                   base: tuple = (), accumulate: bool = True) -> list[np.ndarray]:
     """The displayed images of the last `keep` of `frames` frames (render_image's, each)."""
