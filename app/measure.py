@@ -84,29 +84,23 @@ def time_config(ctx, renderer: Renderer, camera: Camera, size, config: str, warm
 def render_image(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int,
                  seed: int = 0, base: tuple = (), accumulate: bool = True) -> np.ndarray:
     """The displayed image after `frames` frames: their mean, or with accumulate False the last."""
-    opts = Options()
-    opts.apply(list(base) + sets + [f"accumulate={'true' if accumulate else 'false'}"])
-    renderer.options = opts
-    renderer.seed = seed
-    renderer.reset()
-    for _ in range(frames):
-        renderer.render(camera, *size, pass_name)
-    return renderer.read_display()
+    return render_frames(renderer, camera, size, pass_name, sets, frames, 1, seed, base, accumulate)[-1]
 
 
 def render_frames(renderer: Renderer, camera: Camera, size, pass_name: str, sets: list[str], frames: int, keep: int,
-                  base: tuple = (), accumulate: bool = True) -> list[np.ndarray]:
-    """The displayed images of the last `keep` of `frames` frames (render_image's, each)."""
+                  seed: int = 0, base: tuple = (), accumulate: bool = True) -> list[np.ndarray]:
+    """The displayed images after each of the last `keep` of `frames` frames (at least the one
+    before any frame where frames is 0)."""
     opts = Options()
     opts.apply(list(base) + sets + [f"accumulate={'true' if accumulate else 'false'}"])
-    renderer.options, renderer.seed = opts, 0
+    renderer.options, renderer.seed = opts, seed
     renderer.reset()
     shown = []
     for k in range(frames):
         renderer.render(camera, *size, pass_name)
         if k >= frames - keep:
             shown.append(renderer.read_display())
-    return shown
+    return shown or [renderer.read_display()]
 
 
 def reference_batch(renderer: Renderer, camera: Camera, size, first: int, count: int, base: tuple = ()) -> np.ndarray:

@@ -206,12 +206,14 @@ class Renderer:
     def _device_oidn(self, backend) -> bool:
         """Whether OIDN runs on the backend's GPU this frame (option oidn.device); where a GPU
         backend has no OIDN device, on the CPU, said once in notices."""
-        if not self.options.get("oidn.device") or not backend.on_device("oidn"):
-            note = getattr(backend, "oidn_note", None)
-            if note and self.options.get("oidn.device") and f"oidn: on the CPU ({note})" not in self.notices:
-                self.notices.append(f"oidn: on the CPU ({note})")
+        if not self.options.get("oidn.device"):
             return False
-        return True
+        if backend.on_device("oidn"):
+            return True
+        note = getattr(backend, "oidn_note", None)
+        if note and f"oidn: on the CPU ({note})" not in self.notices:
+            self.notices.append(f"oidn: on the CPU ({note})")
+        return False
 
     def _sharing_failed(self, backend, error) -> None:
         """Sharing that worked stopped working (a driver's refusal mid-run): copies from now on

@@ -1,5 +1,5 @@
 """Open Image Denoise's options (`denoise=oidn`) and what one frame's filter runs with, on the
-CPU (app/raster/oidn.py, through pyoidn) or on a ray-tracing backend's GPU (Backend.oidn: OIDN's
+CPU (app/raster/oidn.py, through pyoidn) or on a ray-tracing backend's GPU (Backend.present: OIDN's
 CUDA device, rt/slang/oidn.py), where the denoised image is shown without leaving the device."""
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ register_group("oidn", OidnOptions)
 
 @dataclass(frozen=True)
 class OidnFrame:
-    """What one frame's filter runs with (Backend.oidn)."""
+    """What one frame's filter runs with (the GL pass, or Backend.present on a GPU)."""
 
     quality: str  # high, balanced or fast
     has_albedo: bool  # the radiance holds the first hit's albedo as a factor (RtPass.radiance_terms): OIDN's guide

@@ -36,6 +36,18 @@ def gl():
     return create_headless_context()
 
 
+@pytest.fixture(scope="session")
+def gpu_device():
+    """The Slang device kind the GPU-backend tests run on (RTLAB_TEST_GPU_TRACER: vulkan, which
+    is lavapipe here, or cuda on a machine with an NVIDIA GPU), asserted present."""
+    from rt.backends import describe_device
+
+    tracer = os.environ.get("RTLAB_TEST_GPU_TRACER", "vulkan")
+    assert describe_device(tracer) is not None, f"no {tracer} device with ray tracing (scripts/setup.sh installs " \
+                                                "Mesa's lavapipe)"
+    return tracer
+
+
 @pytest.fixture
 def compare_golden(request):
     """compare_golden(name, image): tolerant comparison with a stored PNG; --regen-golden rewrites it."""

@@ -16,14 +16,6 @@ W, H = 96, 64
 TRACER = os.environ.get("RTLAB_TEST_GPU_TRACER", "vulkan")  # cuda on a machine with an NVIDIA GPU
 
 
-@pytest.fixture(scope="module")
-def device():
-    from rt.backends import describe_device
-
-    assert describe_device(TRACER) is not None, f"no {TRACER} device with ray tracing (scripts/setup.sh installs " \
-                                                "Mesa's lavapipe)"
-
-
 def frames(gl, scene, pass_name: str, sets: tuple, count: int = 1):
     """count frames of pass_name; (the image shown, the last frame's pass names, notices)."""
     opts = Options()
@@ -42,7 +34,7 @@ def frames(gl, scene, pass_name: str, sets: tuple, count: int = 1):
 
 
 @pytest.mark.parametrize("pass_name,sets", [("ao", ("accumulate=false",)), ("gi", ("max_frames=4",))])
-def test_oidn_on_the_gpu_gives_the_cpu_filters_image(gl, device, pass_name, sets):
+def test_oidn_on_the_gpu_gives_the_cpu_filters_image(gl, gpu_device, pass_name, sets):
     scene = build_builtin("cafe" if pass_name == "gi" else "arcade")
     count = 1 if pass_name == "ao" else 4
     image, names, notices, on_device = frames(gl, scene, pass_name, sets, count)
@@ -61,7 +53,7 @@ def test_oidn_on_the_gpu_gives_the_cpu_filters_image(gl, device, pass_name, sets
     assert gap < 0.02 and gap < 0.1 * noise, (gap, noise)
 
 
-def test_emitters_and_sky_bypass_the_gpu_filter(gl, device):
+def test_emitters_and_sky_bypass_the_gpu_filter(gl, gpu_device):
     """The first hit's emission and the sky come back as they were (the café's emissive panels;
     the park's sky), wherever OIDN runs."""
     for name in ("cafe", "park"):
@@ -84,7 +76,7 @@ def test_emitters_and_sky_bypass_the_gpu_filter(gl, device):
         assert np.all(image[lit][..., :3] >= emissive[lit] * 0.999), name
 
 
-def test_a_failing_gpu_filter_falls_back_to_the_cpu(gl, device):
+def test_a_failing_gpu_filter_falls_back_to_the_cpu(gl, gpu_device):
     """OIDN's GPU device failing mid-run (a driver error): that frame is shown undenoised, the
     next ones are denoised on the CPU, said once; nothing crashes."""
     from rt.slang.oidn_library import OidnError

@@ -20,14 +20,6 @@ W, H = 64, 48
 TRACER = os.environ.get("RTLAB_TEST_GPU_TRACER", "vulkan")  # cuda on a machine with an NVIDIA GPU
 
 
-@pytest.fixture(scope="module")
-def device():
-    from rt.backends import describe_device
-
-    assert describe_device(TRACER) is not None, f"no {TRACER} device with ray tracing (scripts/setup.sh installs " \
-                                                "Mesa's lavapipe)"
-
-
 def not_llvm(gl) -> bool:
     """Whether GL is another driver than Mesa's llvmpipe (whose rounding lavapipe shares)."""
     return "llvmpipe" not in gl.info.get("GL_RENDERER", "").lower()
@@ -60,7 +52,7 @@ def gl_inputs(seen: dict) -> dict:
 
 # greyscale AO: the radiance is the lighting itself; GI: albedo x lighting + emission
 @pytest.mark.parametrize("mode", ["ao", "gi"])
-def test_the_device_filter_is_the_gl_filter(gl, device, mode):
+def test_the_device_filter_is_the_gl_filter(gl, gpu_device, mode):
     scene = build_builtin("cafe")  # emitters, sky through the windows, edges
     opts = Options()
     opts.apply([f"tracer={TRACER}", "denoise=svgf", "accumulate=false", "ao.rays_per_pixel=1", "gi.rays_per_pixel=1"])
@@ -115,7 +107,7 @@ def test_the_device_filter_is_the_gl_filter(gl, device, mode):
         assert differ < 0.005 and worst < 2e-3
 
 
-def test_where_the_device_filters_the_frame_stays_there(gl, device):
+def test_where_the_device_filters_the_frame_stays_there(gl, gpu_device):
     """tracer=vulkan: the graph runs svgf_device and neither the GL pass nor the raster G-buffer
     it would read; svgf.device=false brings them back; Embree keeps the GL pass."""
     scene = build_builtin("arcade")

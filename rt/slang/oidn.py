@@ -1,6 +1,6 @@
-"""Open Image Denoise on the Slang backend's GPU (Backend.oidn): OIDN's CUDA device filters the
-image shown (the device's running mean) in the device's own memory, guided by the device's
-G-buffer, with the kernels of shaders/rt/oidn.slang making its inputs and putting the emission
+"""Open Image Denoise on the Slang backend's GPU (SlangBackend.present with an OidnFrame): OIDN's
+CUDA device filters the image shown (the device's running mean) in the device's own memory,
+guided by the device's G-buffer, with the kernels of shaders/rt/oidn.slang making its inputs and putting the emission
 and the sky back; nothing leaves the GPU.
 
 On the CUDA backend OIDN runs in the backend's CUDA context, on the stream slang-rhi submits to
@@ -10,8 +10,8 @@ its GPU time comes from two CUDA events read with the frame (rt/slang/flights.py
 Vulkan backend its images live in memory Vulkan exports (BufferUsage.shared) and OIDN imports by
 file descriptor; there the host waits for the device before the filter and for the filter
 before the frame goes on (no semaphore between the two APIs here yet). Where OIDN has no CUDA
-device (no NVIDIA GPU, or OIDN built without one), `reason` says why and the renderer runs OIDN
-on the CPU (app/raster/oidn.py)."""
+device (no NVIDIA GPU, or OIDN built without one), `missing` says why (the backend's oidn_note)
+and the renderer runs OIDN on the CPU (app/raster/oidn.py)."""
 from __future__ import annotations
 
 import ctypes
@@ -43,8 +43,9 @@ class DeviceOidn:
         self.backend, self.lib = backend, library()
         self.cuda = backend.name == "cuda"
         ordinal = backend.cuda_ordinal() if self.cuda else 0
-        if missing(ordinal) is not None:
-            raise OidnError(missing(ordinal))
+        reason = missing(ordinal)
+        if reason is not None:
+            raise OidnError(reason)
         self.cu = None
         if self.cuda:
             try:
