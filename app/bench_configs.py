@@ -30,6 +30,10 @@ TRANSFERS = ("gbuffer_readback", "gbuffer_share", "device_readback", "upload", "
 DENOISED = ("gi_1", "gi_shadows", "ao_1", "shadows_one")
 FLICKER_FRAMES = 8  # a denoised configuration's flicker: over its last 8 frames shown (still camera)
 DENOISE_FRAMES = 16  # a denoised configuration's image: its 16th frame (SVGF's history fills), against 16 accumulated
+# the raw frames accumulated that each denoiser's image is held against: SVGF's 16th frame (its
+# history holds 16 frames' samples) against 16, OIDN's single frame against 4 (issue 38's targets)
+DENOISE_MATCH = {"svgf": DENOISE_FRAMES, "oidn": 4}
+RAW_FRAMES = tuple(sorted({1, *DENOISE_MATCH.values()}))  # the raw images a denoised configuration measures
 ALL_CONFIGS = (list(CONFIGS) + [f"{c}+acc" for c in CONFIGS if c != "forward"]
                + [f"{c}+{d}" for c in DENOISED for d in DENOISERS])
 DEFAULT_SCENES = ("arcade", "street", "cafe", "park", "temple")

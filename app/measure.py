@@ -15,6 +15,7 @@ from app.bench_configs import (
     PATH_CHECKS,
     PATH_CONFIG,
     PATH_VARIANTS,
+    RAW_FRAMES,
     TRANSFERS,
     config_options,
     frame_split,
@@ -131,7 +132,7 @@ def quality_images(renderer: Renderer, camera: Camera, size, config: str, acc_fr
 def denoised_images(renderer: Renderer, camera: Camera, size, name: str, denoisers: list[str], converged_frames: int,
                     base: tuple = ()) -> dict:
     """A one-sample configuration's pass converged over converged_frames accumulated frames
-    (seed 1), its raw frames (1 and DENOISE_FRAMES accumulated) and each denoiser's
+    (seed 1), its raw frames (each of RAW_FRAMES accumulated) and each denoiser's
     DENOISE_FRAMES-th frame (its own history built over the ones before); under "flicker", the
     flicker (quality.flicker) of the last FLICKER_FRAMES frames shown of the raw frames
     accumulated ("raw"), of the raw frames alone ("raw_1") and of each denoiser's."""
@@ -139,7 +140,9 @@ def denoised_images(renderer: Renderer, camera: Camera, size, name: str, denoise
 
     pass_name, sets = CONFIGS[name]
     out = {"converged": render_image(renderer, camera, size, pass_name, sets, converged_frames, seed=1, base=base)}
-    out["raw_1"] = render_image(renderer, camera, size, pass_name, sets, 1, base=base)
+    for n in RAW_FRAMES:
+        if n != DENOISE_FRAMES:  # that one comes with its flicker below
+            out[f"raw_{n}"] = render_image(renderer, camera, size, pass_name, sets, n, base=base)
     shown = render_frames(renderer, camera, size, pass_name, sets, DENOISE_FRAMES, FLICKER_FRAMES, base=base)
     out[f"raw_{DENOISE_FRAMES}"], out["flicker"] = shown[-1], {"raw": flicker(shown)}
     alone = render_frames(renderer, camera, size, pass_name, sets, FLICKER_FRAMES, FLICKER_FRAMES, base=base,

@@ -11,7 +11,7 @@ from collections import deque
 
 import numpy as np
 
-from app.bench_configs import DENOISE_FRAMES
+from app.bench_configs import DENOISE_FRAMES, DENOISE_MATCH, RAW_FRAMES
 from app.quality import flip_map, mean_bias, mean_flip, psnr, rel_mse, rmse, to_display
 
 BATCHES_PER_WORKER = 4
@@ -294,7 +294,8 @@ class Sweep:
         name = unit["config"]
         converged = images["converged"]
         self.write_png(self.images / f"{work.name}_{name}_converged.png", converged)
-        raw = {n: images[f"raw_{n}"] for n in (1, DENOISE_FRAMES)}
+        raw = {n: images[f"raw_{n}"] for n in RAW_FRAMES}
+        raw_flip = {n: mean_flip(converged, raw[n]) for n in RAW_FRAMES}
         flickers = images["flicker"]
         for d in unit["denoisers"]:
             config, image = f"{name}+{d}", images[d]
@@ -302,8 +303,8 @@ class Sweep:
             flip, error_map = flip_map(converged, image)
             self.write_png(self.images / f"{work.name}_{config}_flip.png", error_map)
             rec = {"frames": DENOISE_FRAMES, "converged_frames": self.ref_frames, "flip": flip,
-                   "flip_raw_1": mean_flip(converged, raw[1]),
-                   f"flip_raw_{DENOISE_FRAMES}": mean_flip(converged, raw[DENOISE_FRAMES]),
+                   "match": DENOISE_MATCH.get(d, DENOISE_FRAMES),
+                   **{f"flip_raw_{n}": v for n, v in raw_flip.items()},
                    "bias": mean_bias(converged, image),
                    f"bias_raw_{DENOISE_FRAMES}": mean_bias(converged, raw[DENOISE_FRAMES]),
                    "rel_mse": rel_mse(converged, image),
@@ -311,9 +312,9 @@ class Sweep:
                    "flicker": flickers[d], f"flicker_raw_{DENOISE_FRAMES}": flickers["raw"],
                    "flicker_raw_1": flickers["raw_1"]}
             work.info.setdefault("_denoise", {})[config] = rec
+            raws = ", ".join(f"{n} {raw_flip[n]:.4f}" for n in RAW_FRAMES)
             self.progress.update(1, f"{work.name} {config}: FLIP {rec['flip']:.4f}, bias {100 * rec['bias']:+.1f} % "
-                                    f"(raw: 1 frame {rec['flip_raw_1']:.4f}, {DENOISE_FRAMES} frames "
-                                    f"{rec[f'flip_raw_{DENOISE_FRAMES}']:.4f})")
+                                    f"(raw frames: {raws})")
 
     def _finish(self, work: SceneWork) -> None:
         """Every unit of the scene is back: its rows in configuration order, handed on."""

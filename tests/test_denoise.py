@@ -168,12 +168,16 @@ def test_shot_and_bench_take_the_denoisers(tmp_path):
         assert row["passes_ms"][denoiser] > 0  # the denoiser's own time, as the profiler saw it
         d = row["denoise"]
         assert d["frames"] == 16 and 0 < d["flip"] < d["flip_raw_1"]
+        # held against the raw frames it stands for: SVGF's 16th frame against 16, OIDN's one frame against 4
+        assert d["match"] == {"svgf": 16, "oidn": 4}[denoiser]
+        assert d["flip_raw_1"] > d["flip_raw_4"] > d["flip_raw_16"] > 0  # accumulating converges
         assert abs(d["bias"]) < 0.2 and abs(d["bias_raw_16"]) < 0.2  # a quick run: small images, few frames
         assert 0 < d["rel_mse"] < d["rel_mse_raw_16"] * 4  # one denoised frame against 16 raw
         # a single frame a time flickers most; the denoised frames change less than the raw ones
         assert 0 < d["flicker"] < d["flicker_raw_1"] and 0 < d["flicker_raw_16"] < d["flicker_raw_1"]
     report = (tmp_path / "b" / "report.md").read_text()
     assert "## Denoisers" in report and "bias denoised" in report and "flicker denoised" in report
+    assert "FLIP 4 raw frames" in report and "(vs 4) |" in report and "(vs 16) |" in report
 
 
 def test_relative_mse_and_flicker():
