@@ -105,7 +105,8 @@ def notices(names) -> list[str]:
         if name in done:
             continue
         last = last_seconds(name)
-        took = f"took {last:.0f} s here last time" if last is not None else "a minute or more on a slow CPU"
+        # a time only where one was measured on this machine (the frame's own line says how long it took)
+        took = f"took {last:.0f} s here last time" if last is not None else "not yet timed on this machine"
         lines.append(f"compiling the {name} kernels (once per version; {took}; `rtlab warmup` compiles every "
                      f"pass ahead)")
     return lines
