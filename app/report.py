@@ -6,7 +6,7 @@ import html
 import json
 from pathlib import Path
 
-from app.bench_configs import FLICKER_FRAMES
+from app.bench_configs import DENOISE_MATCH, FLICKER_FRAMES, RAW_FRAMES
 from app.image_io import write_text
 from app.machine import machine_label
 from app.recommend import STUDY, recommend, rule_text
@@ -122,6 +122,11 @@ def quality_rows(doc: dict) -> list[list[str]]:
     return rows
 
 
+def _between(n: int) -> list[int]:
+    """The raw frame counts the bench measures (bench_configs.RAW_FRAMES) between 1 and n."""
+    return [m for m in RAW_FRAMES if 1 < m < n]
+
+
 def denoise_rows(doc: dict) -> list[list[str]]:
     """Each denoised configuration (bench.measure_denoisers): the denoiser's own time at the
     timing size, and mean FLIP against the pass converged, beside the raw frames'."""
@@ -142,8 +147,8 @@ def denoise_rows(doc: dict) -> list[list[str]]:
         beats = "–" if d.get(f"flip_raw_{match}") is None else (
             f"{'yes' if d['flip'] <= d[f'flip_raw_{match}'] else 'no'} (vs {match})")
         rows.append([r["scene"], r["config"], f"{ms:.1f}",
-                     f"{d['flip_raw_1']:.4f}", got("flip_raw_4", lambda v: f"{v:.4f}"), f"{d[f'flip_raw_{n}']:.4f}",
-                     f"{d['flip']:.4f}",
+                     f"{d['flip_raw_1']:.4f}", *(got(f"flip_raw_{m}", lambda v: f"{v:.4f}") for m in _between(n)),
+                     f"{d[f'flip_raw_{n}']:.4f}", f"{d['flip']:.4f}",
                      got("bias", lambda v: f"{100 * v:+.1f} %"),
                      got(f"rel_mse_raw_{n}", lambda v: f"{v:.4f}"), got("rel_mse", lambda v: f"{v:.4f}"),
                      got("flicker_raw_1", lambda v: f"{v:.4f}"), got(f"flicker_raw_{n}", lambda v: f"{v:.4f}"),
@@ -338,17 +343,20 @@ def write_report(folder: Path, doc: dict, html: bool = True, budget_ms=None) -> 
     if drows:
         first = next(r["denoise"] for r in doc["results"] if r.get("denoise"))
         n = first["frames"]
-        dh = ["scene", "config", "denoiser ms", "FLIP 1 raw frame", "FLIP 4 raw frames", f"FLIP {n} raw frames",
-              f"FLIP denoised (frame {n})", "bias denoised", f"relMSE {n} raw", "relMSE denoised",
+        dh = ["scene", "config", "denoiser ms", "FLIP 1 raw frame",
+              *(f"FLIP {m} raw frames" for m in _between(n) + [n]), f"FLIP denoised (frame {n})", "bias denoised",
+              f"relMSE {n} raw", "relMSE denoised",
               "flicker raw", f"flicker {n} raw", "flicker denoised", "denoised ≤ raw"]
         size = "×".join(str(v) for v in s["quality_size"])
         md += ["## Denoisers", "", "Each pass's image against the same pass converged over "
-               f"{first['converged_frames']} accumulated frames (mean FLIP, {size}): one raw frame, 4 and {n} "
+               f"{first['converged_frames']} accumulated frames (mean FLIP, {size}): one raw frame, "
+               f"{' and '.join(str(m) for m in _between(n) + [n])} "
                f"accumulated raw frames, and the {n}th frame of a still camera denoised without accumulation (SVGF's "
                "history built over the frames before; OIDN filters each frame alone). The last column holds each "
                f"denoiser against the raw frames its image stands for: SVGF's {n}th frame (its history holds {n} "
-               "frames' samples) against as many accumulated, OIDN's single frame against 4. The bias is the denoised "
-               "image's mean brightness against the converged one's (linear light), apart from its noise; the "
+               f"frames' samples) against as many accumulated, OIDN's single frame against "
+               f"{DENOISE_MATCH['oidn']}. The bias is the denoised image's mean brightness against the converged "
+               "one's (linear light), apart from its noise; the "
                "relative MSE (linear light, each channel's squared error over the converged value's square + 0.01) "
                "holds both. The flicker is the mean change of a pixel's displayed luminance (0-1) from frame to "
                f"frame over the last {FLICKER_FRAMES} frames of the still camera: raw frames alone, {n} raw frames "
