@@ -281,3 +281,32 @@ def test_greyscale_ao_is_denoised_free_of_the_albedo(gl, denoiser, sets):
     means = [ao[inner][(albedo[inner] - a) ** 2 < 1e-4].mean() for a in (0.05, 0.9)]
     print(f"{denoiser} {sets}: greyscale AO on dark / bright stripes {means[0]:.4f} / {means[1]:.4f} (exact {EXACT})")
     assert all(abs(m - EXACT) < 0.03 * EXACT for m in means), means
+
+
+def test_oidn_on_the_cpu_sees_the_image_upright(gl, monkeypatch):
+    """OIDN's network is not symmetric under a vertical flip (1-ray AO's output moves ~4 % between
+    the two): the CPU filter gets its images top row first, as the GPU filter does
+    (rt/slang/oidn.py) and as the image is shown; GL keeps them bottom row first."""
+    import pyoidn
+    from scenes.builtin import build_builtin
+
+    seen = {}
+    real = pyoidn.denoise
+
+    def spy(color, albedo, normal, **kw):
+        seen.update(color=color.copy(), normal=normal.copy())
+        return real(color, albedo, normal, **kw)
+
+    monkeypatch.setattr(pyoidn, "denoise", spy)
+    scene = build_builtin("arcade")
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    images = {}
+    for name, sets in (("ao", ("accumulate=false", "denoise=oidn")), ("normal", ())):
+        r = make(gl, scene, sets)
+        r.render(cam, 96, 64, name)
+        images[name] = r.read_linear()
+        r.release()
+    covered = np.abs(images["normal"]).sum(-1) > 0
+    assert not np.allclose(images["normal"], images["normal"][::-1], atol=0.1)  # the view is no mirror image
+    np.testing.assert_allclose(seen["normal"][covered], images["normal"][covered], atol=1e-5)
+    assert np.all(seen["color"] >= 0) and seen["color"].shape == images["ao"].shape

@@ -14,9 +14,11 @@ from rt.oidn import OidnOptions, oidn_frame
 
 
 def _read(tex) -> np.ndarray:
-    """A GL float texture as (H, W, channels) float32, rows as GL keeps them."""
+    """A GL float texture as (H, W, channels) float32, top row first: OIDN's network is not
+    symmetric under a vertical flip (1-ray AO's output moves ~4 % between the two), so it sees
+    images upright, as on the GPU (rt/slang/oidn.py: the device's images run top row first)."""
     w, h = tex.size
-    return np.frombuffer(tex.read(), np.float32).reshape(h, w, tex.components)
+    return np.frombuffer(tex.read(), np.float32).reshape(h, w, tex.components)[::-1]
 
 
 class OidnPass(Pass):
@@ -56,7 +58,7 @@ class OidnPass(Pass):
                 self.out = self.ctx.texture((w, h), 4, dtype="f4")  # RGBA, as the accumulated image
             rgba = np.ones((h, w, 4), np.float32)
             rgba[..., :3] = out
-            self.out.write(rgba.tobytes())
+            self.out.write(rgba[::-1].tobytes())  # rows as GL keeps them
         frame.channels["accumulated"] = self.out
 
     def release(self) -> None:
