@@ -95,6 +95,9 @@ def _env_step(pts, keys, dim, sky, far, acc, surf, b0, rays, nb):
     masked = diffuse.shape[0] > 0
     share = MAP_SHARE if cells_u > 0 else ZERO
     ggx = acc.shape[1] >= brdf.GGX_COLS
+    if share == ZERO and not ggx:  # the cosine lobe alone, whatever the mask
+        _cosine_env_step(pts, keys, dim, terms, texels, far, rays, nb)
+        return
     for j in range(nb):
         i = b0 + j
         key = keys[j]
@@ -114,6 +117,21 @@ def _env_step(pts, keys, dim, sky, far, acc, surf, b0, rays, nb):
             p_map = map_density(cdf, cells_u, cells_v, shift, x, y, z) if share > ZERO else ZERO
         density = share * p_map + (ONE - share) * brdf.lobes_density(p_spec, a, vx, vy, vz, nx[j], ny[j], nz[j], x, y,
                                                                             z)
+        lr, lg, lb = environment_rgb(x, y, z, terms, texels)
+        inv = ONE / density if density > ZERO else ZERO
+        light_sampling._light_ray(j, pts, x, y, z, far, lr * inv, lg * inv, lb * inv, rays)
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _cosine_env_step(pts, keys, dim, terms, texels, far, rays, nb):
+    """_env_step where every direction comes from the cosine lobe (an analytic environment seen
+    from Lambert points): the same numbers and arithmetic without the strategy's branches, so
+    that the loop vectorises (the built-in sky's samples took ~50 ns a point on one core)."""
+    nx, ny, nz = pts[3], pts[4], pts[5]
+    for j in range(nb):
+        key = keys[j]
+        x, y, z = raygen.cosine_about(nx[j], ny[j], nz[j], uniform(key, dim + 1), uniform(key, dim + 2))
+        density = max(nx[j] * x + ny[j] * y + nz[j] * z, ZERO) * INV_PI
         lr, lg, lb = environment_rgb(x, y, z, terms, texels)
         inv = ONE / density if density > ZERO else ZERO
         light_sampling._light_ray(j, pts, x, y, z, far, lr * inv, lg * inv, lb * inv, rays)
