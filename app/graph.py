@@ -72,8 +72,37 @@ def tail(mode: str) -> tuple[Node, ...]:
     return TAIL if mode in CHANNEL_VIEWS else REPROJECTED_TAIL
 
 
+def gbuffer_source(options, tracer: str, software_gl: bool, mode: str = "ao") -> str:
+    """Option gbuffer resolved (raster or rt) for a frame of pass `mode` traced by `tracer`
+    (resolved) on an OpenGL that is (software_gl) or is not a CPU rasteriser. auto: primary rays
+    for the ray-traced effects where Embree traces on a CPU rasteriser (llvmpipe drew the
+    G-buffer 10-30 % slower than Embree traced it, whole frames, report/HISTORY.md 2026-12-07),
+    unless the frame rasterises the G-buffer anyway (a denoiser, reproject: GL_GBUFFER); the
+    raster G-buffer for its own views and elsewhere. A GPU backend traces its own primary hits
+    whatever this says (Backend.wants_gbuffer)."""
+    asked = options.get("gbuffer")
+    if asked != "auto":
+        return asked
+    rasterised_anyway = options.get("denoise") != "off" or bool(options.get("reproject"))
+    cheaper = tracer == "embree" and software_gl and mode in EFFECT_MODES
+    return "rt" if cheaper and not rasterised_anyway else "raster"
+
+
+class Resolved:
+    """Options with some keys' values given here instead (the graph's view of option gbuffer=auto)."""
+
+    def __init__(self, options, **values):
+        self.options, self.values = options, values
+
+    def get(self, key: str):
+        return self.values[key] if key in self.values else self.options.get(key)
+
+
 def active(mode: str, options) -> list[str]:
-    """The passes a mode runs under these options, in order, the tail included."""
+    """The passes a mode runs under these options, in order, the tail included; option gbuffer as
+    resolved (Resolved: Renderer.gbuffer_source), or where it is still auto the raster one."""
+    if options.get("gbuffer") not in ("raster", "rt"):
+        options = Resolved(options, gbuffer="raster")
     return [n.pass_name for n in MODES[mode] + tail(mode) if all(options.get(k) == v for k, v in n.when)]
 
 

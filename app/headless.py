@@ -59,8 +59,9 @@ def run_shot(args) -> int:
     renderer = Renderer(ctx, scene, options, prefetch=traced)
     renderer.seed = args.seed
     tracer = resolve(options.get("tracer"))
-    keys = compile_keys(tracer, args.pass_name, options.get("gbuffer"))
-    right = compile_keys(tracer, "reference" if compare == DIFF else compare, options.get("gbuffer")) if compare else []
+    keys = compile_keys(tracer, args.pass_name, renderer.gbuffer_source(args.pass_name))
+    right = compile_keys(tracer, "reference" if compare == DIFF else compare,
+                         renderer.gbuffer_source("reference" if compare == DIFF else compare)) if compare else []
     for line in compile_notices(list(dict.fromkeys(keys + right))):  # a wait that would otherwise look like a hang
         print(f"rtlab: {line}", file=sys.stderr, flush=True)
     t0 = time.perf_counter()

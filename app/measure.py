@@ -185,7 +185,8 @@ def measure_path(renderer, camera, size, diagonal, frames, converged_frames, bas
     result = {"config": PATH_CONFIG, "frames": frames, "checked_frames": checks, "converged_frames": converged_frames}
     for key, extra in PATH_VARIANTS.items():
         opts = Options()
-        opts.apply(list(base) + sets + extra)
+        # the flicker follows surfaces through the raster G-buffer's motion: rasterised unless asked otherwise
+        opts.apply(["gbuffer=raster"] + list(base) + sets + extra)
         renderer.options, renderer.seed = opts, 0
         renderer.reset()
         flips, changes, prev = [], [], None

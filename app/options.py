@@ -28,7 +28,10 @@ class GlobalOptions:
     denoise: str = opt("off", "denoiser of the ray-traced modes' image: svgf (spatio-temporal variance-guided "
                        "filtering, GL shaders, before accumulation) or oidn (Intel Open Image Denoise on the CPU, "
                        "of the image shown)", choices=("off", "svgf", "oidn"))
-    gbuffer: str = opt("raster", "G-buffer source: raster (GPU) or rt (primary rays)", choices=("raster", "rt"))
+    gbuffer: str = opt("auto", "G-buffer source of the ray-traced passes: raster (OpenGL), rt (primary rays on the "
+                       "tracer) or auto (rt where Embree traces and OpenGL is a CPU rasteriser, which draws it slower "
+                       "than rays find it, unless a denoiser or reproject rasterises one anyway; else raster)",
+                       choices=("auto", "raster", "rt"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
     env: str = opt("scene", "radiance of rays that miss: scene (the file's; the studio for files with no "
                      "lights), black, sky, studio, R,G,B or an equirectangular map of linear radiance "

@@ -9,7 +9,7 @@ import numpy as np
 
 from app.camera import Camera, subpixel_jitter
 from app.frame import Frame
-from app.graph import active, denoises
+from app.graph import Resolved, active, denoises, gbuffer_source
 from app.options import Options
 from app.passes import check_pass, create_passes
 from app.profiler import Profiler
@@ -108,6 +108,7 @@ class Renderer:
         # ray-traced passes make their images besides radiance (rt_direct, rt_ao, ...) only when
         # the graph reads them, or when this is set (tests, scripts that read them)
         self.pass_outputs = False
+        self._software_gl = None  # whether this GL is a CPU rasteriser (gbuffer_source), once asked
 
     def set_scene(self, scene) -> None:
         """scene for every pass and backend (with its textures made smaller where option
@@ -133,6 +134,15 @@ class Renderer:
         for p in self.passes.values():
             p.set_scene(scene)
             p.reset()
+
+    def gbuffer_source(self, pass_name: str = "ao") -> str:
+        """Option gbuffer resolved for this renderer's frames of pass_name (app/graph.py gbuffer_source)."""
+        from app.gl_context import software_gl
+        from rt.backends import resolve
+
+        if self._software_gl is None:
+            self._software_gl = software_gl(self.ctx)
+        return gbuffer_source(self.options, resolve(self.options.get("tracer")), self._software_gl, pass_name)
 
     def ray_tracing(self):
         """The scene's ray-tracing backend (option `tracer`), built on first use and again when
@@ -307,7 +317,7 @@ class Renderer:
             self.accumulation.reset()
             self._state = state
         self.profiler.begin_frame()
-        names = active(pass_name, self.options)
+        names = active(pass_name, Resolved(self.options, gbuffer=self.gbuffer_source(pass_name)))
         backend = self.ray_tracing() if any(self.passes[n].device == "rt" for n in names) else None
         if backend is not None and "svgf" in names and self.options.get("svgf.device") and backend.on_device("svgf"):
             # SVGF on the backend's device (rt/svgf.py): the frame stays there

@@ -242,6 +242,8 @@ class Panel:
         finally:
             if idle:
                 imgui.end_disabled()
+        if key == "gbuffer" and self.v.options.get("gbuffer") == "auto":  # what auto picks here
+            imgui.text_disabled(f"  auto G-buffer here: {self.v.renderer.gbuffer_source(self.v.pass_name)}")
 
     def draw_profiler(self, imgui) -> None:
         v = self.v

@@ -174,9 +174,10 @@ def test_hybrid_swaps_effects(gl):
 
 
 def prepared_frame(gl, name: str, size=(96, 54)):
-    """A renderer on a built-in scene, its default camera, and an AO frame prepared (G-buffer read back)."""
+    """A renderer on a built-in scene, its default camera, and an AO frame prepared (the raster
+    G-buffer read back)."""
     scene = build_builtin(name)
-    r = make(gl, scene)
+    r = make(gl, scene, ("gbuffer=raster",))
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     return r, cam, r.prepare(cam, *size, "ao")
 
@@ -411,7 +412,8 @@ def test_recorded_frame_logs_every_ray_it_traces(gl, pass_name, sets):
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     images = []
     for recorded in (False, True):
-        r = make(gl, scene, sets + ("accumulate=false",))  # the second frame, recorded or not, is frame 1
+        # the second frame, recorded or not, is frame 1; the pass's own rays (primary rays: replay_primary)
+        r = make(gl, scene, sets + ("accumulate=false", "gbuffer=raster"))
         tracer = r.ray_tracing().tracer
         r.render(cam, 64, 36, pass_name)  # the frame before: sizes the log
         if recorded:
