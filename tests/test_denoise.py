@@ -288,6 +288,7 @@ def test_oidn_on_the_cpu_sees_the_image_upright(gl, monkeypatch):
     the two): the CPU filter gets its images top row first, as the GPU filter does
     (rt/slang/oidn.py) and as the image is shown; GL keeps them bottom row first."""
     import pyoidn
+
     from scenes.builtin import build_builtin
 
     seen = {}
