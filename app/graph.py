@@ -72,12 +72,11 @@ def tail(mode: str) -> tuple[Node, ...]:
     return TAIL if mode in CHANNEL_VIEWS else REPROJECTED_TAIL
 
 
-def gbuffer_source(options, tracer: str, software_gl: bool, mode: str = "ao") -> str:
+def gbuffer_source(options, tracer: str, software_gl: bool, mode: str) -> str:
     """Option gbuffer resolved (raster or rt) for a frame of pass `mode` traced by `tracer`
     (resolved) on an OpenGL that is (software_gl) or is not a CPU rasteriser. auto: primary rays
-    for the ray-traced effects where Embree traces on a CPU rasteriser (llvmpipe drew the
-    G-buffer 10-30 % slower than Embree traced it, whole frames, report/HISTORY.md 2026-12-07),
-    unless the frame rasterises the G-buffer anyway (a denoiser, reproject: GL_GBUFFER); the
+    for the ray-traced effects where Embree traces on a CPU rasteriser (there the rays cost less
+    than rasterising: report/local-issue43, report/HISTORY.md), unless the frame rasterises the G-buffer anyway (a denoiser, reproject: GL_GBUFFER); the
     raster G-buffer for its own views and elsewhere. A GPU backend traces its own primary hits
     whatever this says (Backend.wants_gbuffer)."""
     asked = options.get("gbuffer")

@@ -135,7 +135,7 @@ class Renderer:
             p.set_scene(scene)
             p.reset()
 
-    def gbuffer_source(self, pass_name: str = "ao") -> str:
+    def gbuffer_source(self, pass_name: str) -> str:
         """Option gbuffer resolved for this renderer's frames of pass_name (app/graph.py gbuffer_source)."""
         from app.gl_context import software_gl
         from rt.backends import resolve

@@ -15,8 +15,8 @@ if [ -z "${DRJIT_LIBLLVM_PATH:-}" ] && [ -f "$LLVM19" ]; then export DRJIT_LIBLL
 for r in $(seq 1 "$ROUNDS"); do
   python3 report/mitsuba_frames.py --variant llvm_ad_rgb --size "$SIZE" --frames 10 --out "$OUT/mitsuba_$r.json" \
     > "$OUT/mitsuba_$r.log" 2>&1
-  python3 -m app.cli bench --configs shadows_one,gi_shadows --size "$SIZE" --no-quality --seconds 2 --set tracer=embree --set "gbuffer=${GBUFFER:-raster}" \
-    --out "$OUT/rtlab_$r" > "$OUT/rtlab_$r.log" 2>&1
+  python3 -m app.cli bench --configs shadows_one,gi_shadows --size "$SIZE" --no-quality --seconds 2 \
+    --set tracer=embree --set "gbuffer=${GBUFFER:-raster}" --out "$OUT/rtlab_$r" > "$OUT/rtlab_$r.log" 2>&1
 done
 python3 - "$OUT" "$ROUNDS" <<'PY'
 import json

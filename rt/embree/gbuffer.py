@@ -82,7 +82,7 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
     depth.fill(0)
     # elementwise, not `@`: a matrix product goes to BLAS, whose threads then spin for a while
-    # beside the tracer's (the next pass ran 25-35 % slower)
+    # beside the tracer's, slowing the pass that follows
     dc, fc = d[idx], f.astype(np.float32)
     depth[idx] = hits.t[idx] * (dc[:, 0] * fc[0] + dc[:, 1] * fc[1] + dc[:, 2] * fc[2])
     soa = s.soa("gbuffer.rt.soa" if reuse else None)[0]
