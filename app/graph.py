@@ -82,7 +82,7 @@ def gbuffer_source(options, tracer: str, software_gl: bool, mode: str) -> str:
     asked = options.get("gbuffer")
     if asked != "auto":
         return asked
-    rasterised_anyway = options.get("denoise") != "off" or bool(options.get("reproject"))
+    rasterised_anyway = any(all(options.get(k) == v for k, v in n.when if k != "gbuffer") for n in GL_GBUFFER)
     cheaper = tracer == "embree" and software_gl and mode in EFFECT_MODES
     return "rt" if cheaper and not rasterised_anyway else "raster"
 

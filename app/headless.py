@@ -60,8 +60,8 @@ def run_shot(args) -> int:
     renderer.seed = args.seed
     tracer = resolve(options.get("tracer"))
     keys = compile_keys(tracer, args.pass_name, renderer.gbuffer_source(args.pass_name))
-    right = compile_keys(tracer, "reference" if compare == DIFF else compare,
-                         renderer.gbuffer_source("reference" if compare == DIFF else compare)) if compare else []
+    right_pass = "reference" if compare == DIFF else compare
+    right = compile_keys(tracer, right_pass, renderer.gbuffer_source(right_pass)) if compare else []
     for line in compile_notices(list(dict.fromkeys(keys + right))):  # a wait that would otherwise look like a hang
         print(f"rtlab: {line}", file=sys.stderr, flush=True)
     t0 = time.perf_counter()

@@ -64,7 +64,7 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
                   jitter=(0.0, 0.0)) -> CpuGBuffer:
     """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse and jitter as from_raster."""
     from rt.embree import scratch
-    from rt.embree.kernels import camera_rays, shade_hits
+    from rt.embree.kernels import camera_rays
     from rt.embree.shading import empty_surface
 
     n = width * height
@@ -79,10 +79,9 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     covered = hits.hit
     idx = np.flatnonzero(covered)
     s = empty_surface(len(idx), "gbuffer.rt.s" if reuse else None)
-    # shaded in chunks on the tracer's threads with the serial kernel the passes link anyway: a
-    # parallel loop of its own would be one more kernel to compile before a first frame
-    hit_rows, rays, mesh, arrays = (hits.prim, hits.u, hits.v, hits.t), (o, d), data.mesh_args, s.arrays()
-    tracer._map(lambda c: shade_hits.serial(idx[c], hit_rows, rays, mesh, tuple(a[c] for a in arrays)), len(idx))
+    # shaded in chunks on the tracer's threads, where surface() runs the serial kernel the passes
+    # link anyway: its parallel loop would be one more kernel to compile before a first frame
+    tracer.map_chunks(len(idx), lambda c, _: data.surface(hits, d, o, sel=idx[c], out=s.take(c)))
     depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
     depth.fill(0)
     # elementwise, not `@`: a matrix product goes to BLAS, whose threads then spin for a while
