@@ -76,8 +76,9 @@ def gbuffer_source(options, tracer: str, software_gl: bool, mode: str) -> str:
     """Option gbuffer resolved (raster or rt) for a frame of pass `mode` traced by `tracer`
     (resolved) on an OpenGL that is (software_gl) or is not a CPU rasteriser. auto: primary rays
     for the ray-traced effects where Embree traces on a CPU rasteriser (there the rays cost less
-    than rasterising: report/local-issue43, report/HISTORY.md), unless the frame rasterises the G-buffer anyway (a denoiser, reproject: GL_GBUFFER); the
-    raster G-buffer for its own views and elsewhere. A GPU backend traces its own primary hits
+    than rasterising: report/local-issue43, report/HISTORY.md), unless the frame rasterises the
+    G-buffer anyway (a denoiser, reproject: GL_GBUFFER); the raster G-buffer for its own views
+    and elsewhere. A GPU backend traces its own primary hits
     whatever this says (Backend.wants_gbuffer)."""
     asked = options.get("gbuffer")
     if asked != "auto":
