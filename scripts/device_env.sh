@@ -5,7 +5,8 @@
 # parts, .oidn-1/part and .oidn-2/part (its cffi and pycparser wheels in .oidn-3/), each kept in /tmp until both are there. The environment is
 # saved to /tmp/rtlab-env.sh so that later calls on the same warm machine need carry nothing.
 if [ -d .device-carry ] && [ ! -d /tmp/site/slangpy ]; then source .device-carry/device-setup.sh >/dev/null 2>&1; fi
-# pyoidn's own dependencies (cffi, pycparser) and flip-evaluator (the study's FLIP), small wheels carried in .oidn-3/
+# pyoidn's own dependencies (cffi, pycparser), flip-evaluator (the study's FLIP) and the viewer's glfw and
+# imgui-bundle (scripts/viewer_fps.py), wheels carried in .oidn-3/ (15 MB)
 [ -d .oidn-3 ] && python3 -m pip install -q --no-index --no-deps --no-compile --upgrade --target /tmp/site .oidn-3/*.whl
 for i in 1 2; do [ -f .oidn-$i/part ] && cp .oidn-$i/part /tmp/oidn-part-$i; done
 if [ -f /tmp/oidn-part-1 ] && [ -f /tmp/oidn-part-2 ] && [ ! -d /tmp/site/pyoidn ]; then
