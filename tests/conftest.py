@@ -48,6 +48,16 @@ def gpu_device():
     return tracer
 
 
+@pytest.fixture(scope="session")
+def vulkan():
+    """The Vulkan device (lavapipe here), asserted present."""
+    from rt.slang.device import describe
+
+    info = describe("vulkan")
+    assert info is not None, "no Vulkan device with ray tracing (scripts/setup.sh installs Mesa's lavapipe)"
+    return info
+
+
 @pytest.fixture
 def compare_golden(request):
     """compare_golden(name, image): tolerant comparison with a stored PNG; --regen-golden rewrites it."""

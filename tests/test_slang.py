@@ -33,15 +33,6 @@ def assert_same_numbers(a, b):
     assert abs(a.mean() - b.mean()) < PARITY_MEAN * a.mean(), (a.mean(), b.mean())
 
 
-@pytest.fixture(scope="module")
-def vulkan():
-    from rt.slang.device import describe
-
-    info = describe("vulkan")
-    assert info is not None, "no Vulkan device with ray tracing (scripts/setup.sh installs Mesa's lavapipe)"
-    return info
-
-
 def test_ao_between_parallel_planes_on_vulkan(gl, vulkan):
     """AO between two planes h apart, rays of length r: (h / r)^2 of the rays escape."""
     h, radius = 1.0, 2.0

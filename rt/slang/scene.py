@@ -9,6 +9,13 @@ from rt.layout import AREA_PDF, GPU_LIGHT_ROW
 from rt.lights import LightSet
 from rt.mesh import MeshArrays
 
+# triangles from which a scene is kept on the device in the indexed layout (common.slang: Mesh): the
+# vertices' normals, uvs and tangents read through the index buffer the BLAS has anyway, instead
+# of 64 bytes (112 with tangents) of corner rows and 16 of face normal a triangle, about half
+# the device memory and uploads of a big scene (report/HISTORY.md); smaller scenes keep the rows,
+# one contiguous read a hit
+INDEXED_FROM = 1 << 20
+
 
 class DeviceScene:
     def __init__(self, device, scene):
@@ -38,10 +45,28 @@ class DeviceScene:
 
         self.vertices = buffer(a.positions.astype(np.float32), build)
         self.indices = buffer(a.indices.astype(np.uint32), build)
-        self.corners = buffer(a.corners.reshape(-1, 4))  # 4 (7 with tangents) float4 a triangle (common.slang)
-        self.corner_rows = a.corners.shape[1] // 4
-        # w: 1 where the triangle's material is single-sided (primary.slang culls its back)
-        self.face_normals = buffer(np.c_[a.face_normals, a.single_sided[a.material_ids].astype(np.float32)])
+        one4, one = np.zeros((1, 4), np.float32), np.zeros(1, np.uint32)  # a buffer a layout does not use
+        scene = a.scene
+        colors = getattr(scene, "colors", None)
+        self.indexed = len(a.indices) >= INDEXED_FROM
+        if self.indexed:  # the vertices' own arrays read through the indices (Mesh in common.slang)
+            self.corners, self.corner_rows, self.face_normals = buffer(one4), 0, buffer(one4)
+            self.normals = buffer(a.normals.reshape(-1))
+            self.uvs = buffer(a.uvs.reshape(-1))
+            tangents = getattr(scene, "tangents", None)
+            self.has_tangents = int(tangents is not None)
+            self.tangents = buffer(one4 if tangents is None else np.asarray(tangents, np.float32).reshape(-1, 4))
+            self.material_ids = buffer(a.material_ids.astype(np.uint32))
+            self.material_sided = buffer(a.single_sided.astype(np.uint32))
+            rows = np.ones((1, 3), np.float32) if colors is None else np.asarray(colors, np.float32).reshape(-1, 3)
+        else:  # per triangle: corner rows and face normals
+            self.corners = buffer(a.corners.reshape(-1, 4))  # 4 (7 with tangents) float4 a triangle (common.slang)
+            self.corner_rows = a.corners.shape[1] // 4
+            # w: 1 where the triangle's material is single-sided (primary.slang culls its back)
+            self.face_normals = buffer(np.c_[a.face_normals, a.single_sided[a.material_ids].astype(np.float32)])
+            self.normals = self.uvs = self.material_ids = self.material_sided = buffer(one)
+            self.tangents, self.has_tangents = buffer(one4), 0
+            rows = a.tri_colors.reshape(-1, 3)  # 3 a triangle (or one white row)
         materials = np.zeros((len(a.base_color), 24), np.float32)  # common.slang: Material
         materials[:, 0:3], materials[:, 3] = a.base_color, a.base_alpha
         materials[:, 4:7], materials[:, 7] = a.emissive, a.roughness
@@ -50,9 +75,8 @@ class DeviceScene:
         materials[:, 12:16], materials[:, 16:20], materials[:, 20:24] = a.tex_offset, a.tex_w, a.tex_h
         self.materials = buffer(materials)
         self.texels = buffer(a.tex_data)
-        colors = a.tri_colors.reshape(-1, 3)  # 3 a triangle (or one white row): float4 each, as Slang reads them
-        self.colors = buffer(np.c_[colors, np.ones(len(colors), np.float32)])
-        self.has_colors = int(len(a.tri_colors) > 1)
+        self.colors = buffer(np.c_[rows, np.ones(len(rows), np.float32)])  # float4 each, as Slang reads them
+        self.has_colors = int(colors is not None)
         self._upload_lights(buffer)
 
     def _upload_lights(self, buffer) -> None:
@@ -71,8 +95,9 @@ class DeviceScene:
             "keep": buffer(keep if len(keep) else np.zeros(1, np.float32)),
             "alias": buffer(np.asarray(alias, np.int32) if len(alias) else np.zeros(1, np.int32)),
             "area_pdf": buffer(rows(emitter_rows[:, AREA_PDF], 1).ravel()),
-            "tri_light": buffer(np.asarray(li.tri_light, np.int32)),
-            "tri_row": buffer(np.asarray(li.tri_row, np.int32)),
+            # per scene triangle (light_pdf, for rays that hit an emitter): none without emitting triangles
+            "tri_light": buffer(np.asarray(li.tri_light if li.cluster_count else [-1], np.int32)),
+            "tri_row": buffer(np.asarray(li.tri_row if li.cluster_count else [-1], np.int32)),
         }
         kind, pos, d, _, cos_out, spot_scale, _, lum = li.analytic
         spot = kind == 1
@@ -124,15 +149,10 @@ class DeviceScene:
 
     def bind_mesh(self, cursor) -> None:
         """Point a shader's Mesh (common.slang) at this scene's buffers."""
-        cursor["corners"] = self.corners
-        cursor["face_normals"] = self.face_normals
-        cursor["materials"] = self.materials
-        cursor["texels"] = self.texels
-        cursor["corner_rows"] = self.corner_rows
-        cursor["colors"] = self.colors
-        cursor["has_colors"] = self.has_colors
-        cursor["vertices"] = self.vertices
-        cursor["indices"] = self.indices
+        for name in ("corners", "face_normals", "materials", "texels", "corner_rows", "colors", "has_colors",
+                     "vertices", "indices", "normals", "uvs", "tangents", "material_ids", "material_sided",
+                     "has_tangents"):
+            cursor[name] = getattr(self, name)
 
     def bind_trace(self, cursor) -> None:
         """What trace.slang's rays need: the scene, its mesh (masked materials' alpha) and
