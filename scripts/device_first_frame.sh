@@ -11,10 +11,15 @@ export RTLAB_SCENE_CACHE_DIR=/tmp/scache
 S=$(python3 -c "
 from pathlib import Path; from app.bench_load import generate
 print(generate(Path('/tmp/lb/s10m'), 10_000_000, 500))")
+# OLD=DIR (an older tree's app, core, rt, scenes and shaders, e.g. from git archive) alternates with this one
+ROOT=$PWD
 for t in ${TRACERS:-cuda vulkan}; do
   for round in $(seq 0 "${ROUNDS:-2}"); do
-    r=$(python3 -m app.bench_load trace "$S" "$t" 2>/dev/null | tail -1)
-    [ "$round" = 0 ] || echo "$t round $round: $r" | tee -a "$OUT/first_frame.txt"
+    for tree in this ${OLD:+old}; do
+      dir=$ROOT; [ "$tree" = old ] && dir=$ROOT/$OLD
+      r=$(cd "$dir" && PYTHONPATH=$dir:/tmp/site python3 -m app.bench_load trace "$S" "$t" 2>/dev/null | tail -1)
+      [ "$round" = 0 ] || echo "$t $tree round $round: $r" | tee -a "$OUT/first_frame.txt"
+    done
   done
 done
 t=${TRACERS%% *}; t=${t:-cuda}

@@ -15,6 +15,30 @@ from rt.mesh import MeshArrays
 # the device memory and uploads of a big scene (report/HISTORY.md); smaller scenes keep the rows,
 # one contiguous read a hit
 INDEXED_FROM = 1 << 20
+# texels from which a scene's textures are kept as half floats (RGBA16F: 8 bytes a texel instead of
+# 16; 11 significant bits, finer than the 8-bit sources' steps), where every value fits
+HALF_TEXELS_FROM = 1 << 24
+HALF_MAX = 60000.0  # below float16's largest finite value (65504)
+
+
+def half_texels(texels: np.ndarray) -> np.ndarray | None:
+    """The texels as float16 (converted in chunks on threads: numpy's casts leave the GIL), or
+    None where some value is not finite or is beyond float16's range."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    out = np.empty(texels.shape, np.float16)
+    step = 1 << 20
+
+    def convert(lo: int) -> bool:
+        part = out[lo:lo + step]
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float16: inf, found below
+            np.copyto(part, texels[lo:lo + step], casting="unsafe")
+        return bool(np.abs(part).max(initial=0.0) < HALF_MAX)  # False for inf and NaN too
+
+    with ThreadPoolExecutor(min(os.cpu_count() or 1, 16)) as pool:
+        fits = all(pool.map(convert, range(0, len(texels), step)))
+    return out if fits else None
 
 
 class DeviceScene:
@@ -74,7 +98,12 @@ class DeviceScene:
         materials[:, 10:12] = a.wrap[:, :2] + 3 * a.wrap[:, 2:]  # wrap modes, + 3 where read at the nearest texel
         materials[:, 12:16], materials[:, 16:20], materials[:, 20:24] = a.tex_offset, a.tex_w, a.tex_h
         self.materials = buffer(materials)
-        self.texels = buffer(a.tex_data)
+        half = half_texels(a.tex_data) if len(a.tex_data) >= HALF_TEXELS_FROM else None
+        self.half_texels = int(half is not None)
+        if half is not None:  # RGBA16F, two halves a uint (common.slang: texel)
+            self.texels, self.texels_half = buffer(one4), buffer(half.view(np.uint32))
+        else:
+            self.texels, self.texels_half = buffer(a.tex_data), buffer(np.zeros((1, 2), np.uint32))
         self.colors = buffer(np.c_[rows, np.ones(len(rows), np.float32)])  # float4 each, as Slang reads them
         self.has_colors = int(colors is not None)
         self._upload_lights(buffer)
@@ -151,7 +180,7 @@ class DeviceScene:
         """Point a shader's Mesh (common.slang) at this scene's buffers."""
         for name in ("corners", "face_normals", "materials", "texels", "corner_rows", "colors", "has_colors",
                      "vertices", "indices", "normals", "uvs", "tangents", "material_ids", "material_sided",
-                     "has_tangents"):
+                     "has_tangents", "texels_half", "half_texels"):
             cursor[name] = getattr(self, name)
 
     def bind_trace(self, cursor) -> None:
