@@ -1,6 +1,8 @@
 """Camera rays traced as packets of 4 x 4 pixels (rtcIntersect16, rtcore.intersect_tiles) give
 the same hits, to the bit, as one ray at a time: on a built-in scene, at sizes that leave part
-tiles at the edges, and through the alpha filter of masked materials."""
+tiles at the edges, and through the alpha filter of masked materials. So do the packets of 16
+that every other ray is traced in (rtcore.intersect_range, occluded_range; the generators'
+shadow and AO rays through raygen._trace_add): incoherent rays, part packets at the end."""
 import numpy as np
 import pytest
 
@@ -49,6 +51,43 @@ def test_packets_pass_the_alpha_filter(tmp_path):
     hits = _same_hits(tracer, cam, 64, 64)
     leaf = data.material_ids[hits.prim[hits.hit]] == 1
     assert 0 < leaf.mean() < 1  # the leaf's solid half is hit, its cut half seen through
+
+
+def _incoherent_rays(scene, n, seed=3):
+    """Rays from random points of random triangles in random directions, lengths 0.5-3."""
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, len(scene.indices), n)
+    w = rng.random((n, 2))
+    w[w.sum(1) > 1] = 1 - w[w.sum(1) > 1]
+    p = scene.positions[scene.indices[tri]].astype(np.float64)
+    o = p[:, 0] + w[:, :1] * (p[:, 1] - p[:, 0]) + w[:, 1:] * (p[:, 2] - p[:, 0])
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return (o + 1e-3 * d).astype(np.float32), d.astype(np.float32), (0.5 + 2.5 * rng.random(n)).astype(np.float32)
+
+
+@pytest.mark.parametrize("n", [1, 15, 16, 17, 5003])
+def test_packets_of_any_rays_find_what_single_rays_find(n):
+    from rt.embree import rtcore
+
+    scene = build_builtin("arcade")
+    tracer = EmbreeTracer(scene.positions, scene.indices, threads=1)
+    o, d, tmax = _incoherent_rays(scene, n)
+    handle = tracer.inline_scene()
+    t, prim = np.empty(n, np.float32), np.empty(n, np.int32)
+    u, v = np.empty(n, np.float32), np.empty(n, np.float32)
+    rtcore.intersect(handle, o, d, tmax, t, prim, u, v)
+    blocked = np.empty(n, np.bool_)
+    rtcore.occluded(handle, o, d, tmax, blocked)
+    buf, b = rtcore.ray_buffer()
+    words = buf.view(np.uint32)
+    for i in range(n):  # one ray at a time, through the single-ray calls
+        assert (t[i], prim[i], u[i], v[i]) == rtcore.intersect1(handle, buf, words, b, *o[i], *d[i], tmax[i])
+        assert blocked[i] == rtcore.occluded1(handle, buf, words, b, *o[i], *d[i], tmax[i])
+    assert blocked[prim >= 0].all() and not blocked[prim < 0].any()
+    if n > 1000:
+        assert 0.2 < blocked.mean() < 0.95
+    tracer.close()
 
 
 def test_recorded_camera_rays_are_the_g_buffers_and_replay_as_packets():

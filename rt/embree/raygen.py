@@ -141,9 +141,10 @@ def surface_soa(P, N, NG, out):
 @njit(cache=True, error_model="numpy")
 def tracing(tr):
     """A generator's tracing record: the target tr (rtcore.target) with a ray buffer of its own
-    (rtcore.ray_buffer: the array, its words, the aligned start)."""
+    (rtcore.ray_buffer: the array, its words, the aligned start), a packet of 16 (rtcore.packet)
+    and which ray of a step each of its lanes holds."""
     buf, b = embree.ray_buffer()
-    return tr, buf, buf.view(np.uint32), b
+    return tr, buf, buf.view(np.uint32), b, embree.packet(), np.empty(embree.PACKET, np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -196,17 +197,17 @@ def _pack(G, g0, b0, nb, blk, m, tmax_value, packed, light):
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
-    """_pack's rays, traced one by one instead of written out; acc[point] gains what each ray
-    that gets through carries (see _pack and the module notes). trace: tracing(tr)'s record.
-    Returns how many were traced."""
-    tr, buf, words, b = trace
+    """_pack's rays, traced instead of written out, 16 to a packet (rtcore.occluded16); acc[point]
+    gains what each ray that gets through carries (see _pack and the module notes). trace:
+    tracing(tr)'s record. Returns how many were traced."""
+    tr, pk, lane_of = trace[0], trace[4], trace[5]
     m = 0
+    lanes = 0
     at = embree.log_reserve(tr, nb)  # the step's slots in tr's ray log (-1: not logging)
     for j in range(nb):
         slot = at + j if at >= 0 else at
         if light:
-            ex, ey, ez = blk[CARRIED, j], blk[CARRIED + 1, j], blk[CARRIED + 2, j]
-            if not max(ex, ey, ez) > ZERO:
+            if not max(blk[CARRIED, j], blk[CARRIED + 1, j], blk[CARRIED + 2, j]) > ZERO:
                 embree.log_put(tr, slot, -ONE, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO)
                 continue
         elif not blk[CARRIED, j] > ZERO:
@@ -217,14 +218,33 @@ def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
                                    G[GZ, g0 + i])
         t = shadow_tmax(blk[DIST, j]) if light else tmax_value
         m += 1
-        if embree.trace_occluded(tr, slot, buf, words, b, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t):
+        embree.log_put(tr, slot, ZERO, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t)
+        embree.set_lane(pk[0], pk[1], lanes, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t)
+        lane_of[lanes] = j
+        lanes += 1
+        if lanes == embree.PACKET:
+            _add_unblocked(G, g0, b0, blk, tr[0], pk, lane_of, lanes, acc, light)
+            lanes = 0
+    if lanes:
+        _add_unblocked(G, g0, b0, blk, tr[0], pk, lane_of, lanes, acc, light)
+    return m
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _add_unblocked(G, g0, b0, blk, scene, pk, lane_of, lanes, acc, light):
+    """Trace a packet of _trace_add's rays (lane k: the step's ray lane_of[k]); acc[point] gains
+    what each ray that gets through carries."""
+    embree.occluded16(scene, pk, lanes)
+    for k in range(lanes):
+        if embree.blocked16(pk, k):
             continue
+        j = lane_of[k]
+        i = b0 + j
         if light:
-            add_light(acc, i, ex, ey, ez, G[NX, g0 + i], G[NY, g0 + i], G[NZ, g0 + i], blk[DIR, j], blk[DIR + 1, j],
-                      blk[DIR + 2, j])
+            add_light(acc, i, blk[CARRIED, j], blk[CARRIED + 1, j], blk[CARRIED + 2, j], G[NX, g0 + i],
+                      G[NY, g0 + i], G[NZ, g0 + i], blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j])
         else:
             acc[i, 0] += ONE
-    return m
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
