@@ -140,11 +140,9 @@ def surface_soa(P, N, NG, out):
 
 @njit(cache=True, error_model="numpy")
 def tracing(tr):
-    """A generator's tracing record: the target tr (rtcore.target) with a ray buffer of its own
-    (rtcore.ray_buffer: the array, its words, the aligned start), a packet of 16 (rtcore.packet)
-    and which ray of a step each of its lanes holds."""
-    buf, b = embree.ray_buffer()
-    return tr, buf, buf.view(np.uint32), b, embree.packet(), np.empty(embree.PACKET, np.int64)
+    """A generator's tracing record: the target tr (rtcore.target) with a packet of 16 rays of
+    its own (rtcore.packet) and which ray of a step each of its lanes holds."""
+    return tr, embree.packet(), np.empty(embree.PACKET, np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -200,7 +198,7 @@ def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
     """_pack's rays, traced instead of written out, 16 to a packet (rtcore.occluded16); acc[point]
     gains what each ray that gets through carries (see _pack and the module notes). trace:
     tracing(tr)'s record. Returns how many were traced."""
-    tr, pk, lane_of = trace[0], trace[4], trace[5]
+    tr, pk, lane_of = trace
     m = 0
     lanes = 0
     at = embree.log_reserve(tr, nb)  # the step's slots in tr's ray log (-1: not logging)

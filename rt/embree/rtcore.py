@@ -196,8 +196,8 @@ def intersect(scene, o, d, tmax, t, prim, u, v):
 # -- tracing targets: a scene handle, and where the rays traced are logged ---------------------
 # The frame kernels take a target `tr` = (handle, log, count): handle 0 means "do not trace"
 # (generators pack their rays for the caller instead); log is an (n, LOG_WIDTH) float32 array
-# (or an empty one: no logging) into which every ray traced through trace_occluded /
-# trace_intersect is written, for bench --perf to trace again. A caller reserves a run of
+# (or an empty one: no logging) into which every ray traced (the generators' through log_put,
+# trace_intersect's) is written, for bench --perf to trace again. A caller reserves a run of
 # slots for a step's rays (log_reserve: count advances atomically), so that each run of the log
 # holds one thread's neighbouring rays, as it traced them; slots of rays not traced stay marked.
 LOG_WIDTH = 8  # origin, direction, tmax, kind (0 occlusion, 1 closest hit, -1 a slot not traced)
@@ -233,13 +233,6 @@ def log_put(tr, slot, kind, ox, oy, oz, dx, dy, dz, tmax):
     if 0 <= slot < log.shape[0]:
         log[slot, 0], log[slot, 1], log[slot, 2], log[slot, 3], log[slot, 4], log[slot, 5] = ox, oy, oz, dx, dy, dz
         log[slot, 6], log[slot, 7] = tmax, kind
-
-
-@njit(cache=True, error_model="numpy")
-def trace_occluded(tr, slot, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
-    """occluded1 on the target's scene, the ray logged at `slot` (log_reserve) if tr logs."""
-    log_put(tr, slot, 0.0, ox, oy, oz, dx, dy, dz, tmax)
-    return occluded1(tr[0], buf, words, b, ox, oy, oz, dx, dy, dz, tmax)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
