@@ -64,7 +64,7 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
                   jitter=(0.0, 0.0)) -> CpuGBuffer:
     """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse and jitter as from_raster."""
     from rt.embree import scratch
-    from rt.embree.kernels import camera_rays
+    from rt.embree.kernels import camera_rays, primary_pixels
     from rt.embree.shading import empty_surface
 
     n = width * height
@@ -76,18 +76,14 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     hits = tracer.intersect_image(o, d, width, height)
     if data.has_single_sided:
         cull_back_faces(data, tracer, o, d, hits)
-    covered = hits.hit
-    idx = np.flatnonzero(covered)
+    covered = scratch.buffer("gbuffer.rt.covered", (n,), np.bool_) if reuse else np.empty(n, np.bool_)
+    idx = scratch.buffer("gbuffer.rt.index", (n,), np.int64) if reuse else np.empty(n, np.int64)
+    depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
+    idx = idx[:primary_pixels(hits.t, hits.prim, d, f.astype(np.float32), covered, idx, depth)]
     s = empty_surface(len(idx), "gbuffer.rt.s" if reuse else None)
     # shaded in chunks on the tracer's threads, where surface() runs the serial kernel the passes
     # link anyway: its parallel loop would be one more kernel to compile before a first frame
     tracer.map_chunks(len(idx), lambda c, _: data.surface(hits, d, o, sel=idx[c], out=s.take(c)))
-    depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
-    depth.fill(0)
-    # elementwise, not `@`: a matrix product goes to BLAS, whose threads then spin for a while
-    # beside the tracer's, slowing the pass that follows
-    dc, fc = d[idx], f.astype(np.float32)
-    depth[idx] = hits.t[idx] * (dc[:, 0] * fc[0] + dc[:, 1] * fc[1] + dc[:, 2] * fc[2])
     soa = s.soa("gbuffer.rt.soa" if reuse else None)[0]
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), d, covered, idx, s, depth, soa)
 
