@@ -6,9 +6,10 @@ second (Renderer.frames_made) and the UI loop's rate over the last four fifths o
     PYTHONPATH=. xvfb-run -a python3 scripts/viewer_fps.py arcade --pass ao --size 320x180
 
 With a display ($DISPLAY) the window opens there; without one GLFW's null platform is asked for
-and the context comes from EGL (the lent GPU machine has no X server: its EGL is NVIDIA's). The
-viewer's own has_display check is bypassed for that, which is why this is a script and not a
-`rtlab view` option."""
+and the context comes from EGL, which works where EGL offers configs with window surfaces (Mesa's).
+The viewer's own has_display check is bypassed for that, which is why this is a script and not a
+`rtlab view` option. NVIDIA's headless EGL (the lent GPU machine: no X server) offers none, so GLFW
+stops with "EGL: Failed to find a suitable EGLConfig" there: it needs an X server on that GPU."""
 import os
 import sys
 import time
