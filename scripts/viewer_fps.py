@@ -5,38 +5,24 @@ second (Renderer.frames_made) and the UI loop's rate over the last four fifths o
     PYTHONPATH=. python3 scripts/viewer_fps.py SCENE [rtlab view's options]
     PYTHONPATH=. xvfb-run -a python3 scripts/viewer_fps.py arcade --pass ao --size 320x180
 
-With a display ($DISPLAY) the window opens there; without one GLFW's null platform is asked for
-and the context comes from EGL, which works where EGL offers configs with window surfaces (Mesa's).
-The viewer's own has_display check is bypassed for that, which is why this is a script and not a
-`rtlab view` option. NVIDIA's headless EGL (the lent GPU machine: no X server) offers none, so GLFW
-stops with "EGL: Failed to find a suitable EGLConfig" there: it needs an X server on that GPU."""
+It needs a display: here Xvfb (above). A window without one, through GLFW's null platform and
+EGL, was tried and fails both on Mesa here ("EGL is not or could not be initialized") and on the
+lent GPU machine, whose NVIDIA EGL has no config with window surfaces ("Failed to find a suitable
+EGLConfig"): that machine has no X server, so the viewer's rate is not measured there."""
 import os
 import sys
 import time
 
-import glfw
-
-if not os.environ.get("DISPLAY"):
-    glfw.init_hint(glfw.PLATFORM, glfw.PLATFORM_NULL)
-_window_hint = glfw.window_hint
-
-
-def _egl_hint(key, value):
-    """Every window hint the viewer gives, and an EGL context (GLX needs an X server)."""
-    _window_hint(key, value)
-    _window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
-
-
-glfw.window_hint = _egl_hint
-
-import app.viewer as viewer_module  # noqa: E402
-from app.cli import build_parser  # noqa: E402
+import app.viewer as viewer_module
+from app.cli import build_parser
 
 
 def main(argv) -> int:
     n = int(os.environ.get("N", 300))
+    if not os.environ.get("DISPLAY"):
+        print("viewer_fps: no display ($DISPLAY); run it under xvfb-run", file=sys.stderr)
+        return 2
     args = build_parser().parse_args(["view", *argv, "--exit-after", str(n)])
-    viewer_module.has_display = lambda: True
     viewer = viewer_module.Viewer(args)
     marks = []
     frame = viewer.frame
