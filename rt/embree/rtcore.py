@@ -3,9 +3,10 @@ compiled code (numba).
 
 embreex ships libembree4 but its `run` takes whole arrays and returns fresh ones, so every
 call costs Python work under the GIL and allocations (an intersect call makes six output
-arrays). Here a ray query is a plain call of `rtcOccluded1` / `rtcIntersect1` from a numba
-kernel that runs without the GIL: a chunk's tracing is one GIL-free call writing into the
-caller's arrays, and kernels may trace rays as they make them. The library is embreex's own
+arrays). Here ray queries are plain calls of `rtcIntersect16` / `rtcOccluded16` (packets of 16)
+from numba kernels that run without the GIL: a chunk's tracing is one GIL-free call writing
+into the caller's arrays, and kernels may trace rays as they make them. The single-ray calls
+(`intersect1`, `occluded1`) stay as the reference the packets are tested against. The library is embreex's own
 copy, so the BVH and traversal are the same Embree 4 as before.
 
 Layouts follow embree4/rtcore_ray.h: RTCRay is 12 words (org, tnear, dir, time, tfar, mask,
@@ -359,13 +360,20 @@ def hit16(pk, k):
 
 
 @njit(cache=True, error_model="numpy")
+def _fill_lanes(pk, o, d, tmax, p0, i1):
+    """The packet's lanes from rays p0, p0 + 1, ... (before i1) of o, d, tmax; returns how many."""
+    lanes = min(PACKET, i1 - p0)
+    for k in range(lanes):
+        i = p0 + k
+        set_lane(pk[0], pk[1], k, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
+    return lanes
+
+
+@njit(cache=True, error_model="numpy")
 def occluded_range(scene, pk, o, d, tmax, out, i0, i1):
     """out[i] = ray i blocked within tmax[i], for i0 <= i < i1, 16 rays a packet."""
     for p0 in range(i0, i1, PACKET):
-        lanes = min(PACKET, i1 - p0)
-        for k in range(lanes):
-            i = p0 + k
-            set_lane(pk[0], pk[1], k, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
+        lanes = _fill_lanes(pk, o, d, tmax, p0, i1)
         occluded16(scene, pk, lanes)
         for k in range(lanes):
             out[p0 + k] = blocked16(pk, k)
@@ -375,10 +383,7 @@ def occluded_range(scene, pk, o, d, tmax, out, i0, i1):
 def intersect_range(scene, pk, o, d, tmax, t, prim, u, v, i0, i1):
     """Closest hits of rays i0 <= i < i1 within tmax[i] into t, prim, u, v, 16 rays a packet."""
     for p0 in range(i0, i1, PACKET):
-        lanes = min(PACKET, i1 - p0)
-        for k in range(lanes):
-            i = p0 + k
-            set_lane(pk[0], pk[1], k, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
+        lanes = _fill_lanes(pk, o, d, tmax, p0, i1)
         intersect16(scene, pk, lanes)
         for k in range(lanes):
             t[p0 + k], prim[p0 + k], u[p0 + k], v[p0 + k] = hit16(pk, k)
@@ -391,9 +396,8 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
     Tracer.run_parallel over the tiles, row of tiles by row."""
     n = bounds[bounds.shape[0] - 1]
     tiles_x = (width + 3) // 4
-    ray = _aligned(PACKET_WORDS, np.float32)
-    words = ray.view(np.uint32)
-    valid = _aligned(PACKET, np.int32)
+    pk = packet()
+    ray, words, valid = pk
     pix = np.empty(PACKET, np.int64)
     while True:
         b0, b1 = next_block(counter, bounds)
@@ -410,22 +414,9 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
                     p = y0 * width + x0  # a lane left out: any ray, not traced
                     valid[k] = 0
                 pix[k] = p
-                ray[k], ray[PACKET + k], ray[2 * PACKET + k] = o[p, 0], o[p, 1], o[p, 2]
-                ray[3 * PACKET + k] = 0.0  # tnear
-                ray[4 * PACKET + k], ray[5 * PACKET + k], ray[6 * PACKET + k] = d[p, 0], d[p, 1], d[p, 2]
-                ray[7 * PACKET + k] = 0.0  # time
-                ray[_T_FAR + k] = MISS_T
-                words[9 * PACKET + k] = INVALID  # mask: every geometry
-                words[10 * PACKET + k] = 0  # id
-                words[11 * PACKET + k] = 0  # flags
-                words[_PRIM + k] = INVALID
-                words[_GEOM + k] = INVALID
+                set_lane(ray, words, k, o[p, 0], o[p, 1], o[p, 2], d[p, 0], d[p, 1], d[p, 2], MISS_T)
             _intersect16(valid.ctypes.data, scene, ray.ctypes.data, 0)
             for k in range(PACKET):
-                if valid[k] == 0:
-                    continue
-                p = pix[k]
-                if words[_GEOM + k] == INVALID:
-                    t[p], prim[p], u[p], v[p] = MISS_T, -1, 0.0, 0.0
-                else:
-                    t[p], prim[p], u[p], v[p] = ray[_T_FAR + k], np.int32(words[_PRIM + k]), ray[_U + k], ray[_V + k]
+                if valid[k] != 0:
+                    p = pix[k]
+                    t[p], prim[p], u[p], v[p] = hit16(pk, k)

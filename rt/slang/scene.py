@@ -72,8 +72,7 @@ class DeviceScene:
         one4, one = np.zeros((1, 4), np.float32), np.zeros(1, np.uint32)  # a buffer a layout does not use
         scene = a.scene
         colors = getattr(scene, "colors", None)
-        self.indexed = len(a.indices) >= INDEXED_FROM
-        if self.indexed:  # the vertices' own arrays read through the indices (Mesh in common.slang)
+        if len(a.indices) >= INDEXED_FROM:  # the vertices' own arrays read through the indices (Mesh in common.slang)
             self.corners, self.corner_rows, self.face_normals = buffer(one4), 0, buffer(one4)
             self.normals = buffer(a.normals.reshape(-1))
             self.uvs = buffer(a.uvs.reshape(-1))
