@@ -396,8 +396,9 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
     Tracer.run_parallel over the tiles, row of tiles by row."""
     n = bounds[bounds.shape[0] - 1]
     tiles_x = (width + 3) // 4
-    pk = packet()
-    ray, words, valid = pk
+    ray = _aligned(PACKET_WORDS, np.float32)
+    words = ray.view(np.uint32)
+    valid = _aligned(PACKET, np.int32)
     pix = np.empty(PACKET, np.int64)
     while True:
         b0, b1 = next_block(counter, bounds)
@@ -414,9 +415,22 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
                     p = y0 * width + x0  # a lane left out: any ray, not traced
                     valid[k] = 0
                 pix[k] = p
-                set_lane(ray, words, k, o[p, 0], o[p, 1], o[p, 2], d[p, 0], d[p, 1], d[p, 2], MISS_T)
+                ray[k], ray[PACKET + k], ray[2 * PACKET + k] = o[p, 0], o[p, 1], o[p, 2]
+                ray[3 * PACKET + k] = 0.0  # tnear
+                ray[4 * PACKET + k], ray[5 * PACKET + k], ray[6 * PACKET + k] = d[p, 0], d[p, 1], d[p, 2]
+                ray[7 * PACKET + k] = 0.0  # time
+                ray[_T_FAR + k] = MISS_T
+                words[9 * PACKET + k] = INVALID  # mask: every geometry
+                words[10 * PACKET + k] = 0  # id
+                words[11 * PACKET + k] = 0  # flags
+                words[_PRIM + k] = INVALID
+                words[_GEOM + k] = INVALID
             _intersect16(valid.ctypes.data, scene, ray.ctypes.data, 0)
             for k in range(PACKET):
-                if valid[k] != 0:
-                    p = pix[k]
-                    t[p], prim[p], u[p], v[p] = hit16(pk, k)
+                if valid[k] == 0:
+                    continue
+                p = pix[k]
+                if words[_GEOM + k] == INVALID:
+                    t[p], prim[p], u[p], v[p] = MISS_T, -1, 0.0, 0.0
+                else:
+                    t[p], prim[p], u[p], v[p] = ray[_T_FAR + k], np.int32(words[_PRIM + k]), ray[_U + k], ray[_V + k]
