@@ -79,3 +79,18 @@ def test_switching_to_a_waited_pass_and_resizing_show_their_own_frames(gl, arcad
 
     for a, b in zip(run(1), run(2), strict=True):
         assert np.array_equal(a, b)
+
+
+def test_the_ray_counter_is_its_words_sum_wrapping_as_one_word():
+    """The device counts rays in COUNTER_WORDS words (one word made every thread queue on the
+    same atomic); the host's total is their sum modulo 2^32, as one word's running value was, so
+    that a frame's count (a difference of two readings) survives the words wrapping."""
+    from rt.slang.flights import COUNTER_WORDS, counter_total
+
+    shader = open("shaders/rt/common.slang").read()
+    assert f"static const uint COUNTER_WORDS = {COUNTER_WORDS};" in shader
+    assert COUNTER_WORDS & (COUNTER_WORDS - 1) == 0  # count_rays takes p mod it with a mask
+    before = np.full(COUNTER_WORDS, 2**32 - 5, np.uint32)
+    after = (before.astype(np.uint64) + 7) % 2**32  # every word wrapped past 2^32
+    assert (counter_total(after) - counter_total(before)) % 2**32 == 7 * COUNTER_WORDS
+    assert counter_total(np.arange(COUNTER_WORDS, dtype=np.uint32)) == COUNTER_WORDS * (COUNTER_WORDS - 1) // 2

@@ -14,7 +14,7 @@ from rt.effects import AUX_CHANNEL, AUX_CHANNELS, PASSES, PLUGINS, STREAM
 from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args, env_distribution
 from rt.slang.device import SHADER_DIR, open_device
-from rt.slang.flights import Flights
+from rt.slang.flights import COUNTER_WORDS, Flights
 from rt.slang.images import Image, Rgba8
 from rt.slang.pipeline import ComputePipeline, Pipeline
 from rt.slang.scene import DeviceScene
@@ -76,8 +76,8 @@ class SlangBackend(Backend):
         self._recording = None  # (log buffer, capacity) while a frame's rays are recorded (record)
         self._submitted = None  # the id of the last submission
         self._log_count = self._buffer("log.count", 1, 4)
-        self._counter = self._buffer("rays_traced", 1, 4)
-        self._counter.copy_from_numpy(np.zeros(1, np.uint32))
+        self._counter = self._buffer("rays_traced", COUNTER_WORDS, 4)
+        self._counter.copy_from_numpy(np.zeros(COUNTER_WORDS, np.uint32))
         # each frame's submission, ray count and timestamps, read when it is done
         self._flights = Flights(self.device, kind, self._counter, self.cuda_context() if kind == "cuda" else None)
 

@@ -2,8 +2,8 @@
 dispatches' timestamps, read once the device has done that frame, while the host goes on to the
 next one (end(lag=1)) or at once (lag=0, a frame the host needs finished, e.g. to show it).
 
-The device's ray counter (a running sum, shaders/rt/*.slang) is copied into host memory after
-each frame's work, into one of two slots, so that the copy of frame N+1 does not overwrite frame
+The device's ray counter (a running sum spread over COUNTER_WORDS words, which the host adds up:
+shaders/rt/common.slang count_rays) is copied into host memory after each frame's work, into one of two slots, so that the copy of frame N+1 does not overwrite frame
 N's before it is read. On Vulkan the copy is recorded with the frame's work; on CUDA slang-rhi
 runs a recorded copy into host memory as a synchronous cuMemcpy at submission, which would make
 the host wait for the frame there, so the copy is CUDA's asynchronous one, followed by an event
@@ -19,6 +19,13 @@ import numpy as np
 from rt.libcuda import VOID, Driver, P
 
 SLOTS = 2  # frames whose results are kept: the one being recorded and one in flight
+COUNTER_WORDS = 256  # the ray counter's words (shaders/rt/common.slang's COUNTER_WORDS)
+COUNTER_BYTES = 4 * COUNTER_WORDS
+
+
+def counter_total(words) -> int:
+    """The counter's value: its words' sum, modulo 2^32 as one word would wrap."""
+    return int(np.asarray(words, np.uint32).sum(dtype=np.uint64)) % 2**32
 
 
 @dataclass
@@ -78,17 +85,17 @@ class _VulkanCounter:
         import slangpy as spy
 
         self.counter = counter
-        self.host = [device.create_buffer(size=4, memory_type=spy.MemoryType.read_back,
+        self.host = [device.create_buffer(size=COUNTER_BYTES, memory_type=spy.MemoryType.read_back,
                                           usage=spy.BufferUsage.copy_destination) for _ in range(SLOTS)]
 
     def record(self, encoder_of, slot: int) -> None:
-        encoder_of().copy_buffer(self.host[slot], 0, self.counter, 0, 4)
+        encoder_of().copy_buffer(self.host[slot], 0, self.counter, 0, COUNTER_BYTES)
 
     def after_submit(self, slot: int) -> None:
         pass
 
     def read(self, slot: int) -> int:
-        return int(self.host[slot].to_numpy().view(np.uint32)[0])
+        return counter_total(self.host[slot].to_numpy().view(np.uint32))
 
 
 class _CudaCounter:
@@ -106,26 +113,27 @@ class _CudaCounter:
         self.events = [VOID() for _ in range(SLOTS)]
 
         def make():
-            self.cu.call("cuMemHostAlloc", ctypes.byref(self.host), 4 * SLOTS, 0)
+            self.cu.call("cuMemHostAlloc", ctypes.byref(self.host), COUNTER_BYTES * SLOTS, 0)
             for e in self.events:
                 self.cu.call("cuEventCreate", ctypes.byref(e), 2)  # 2: no timing
 
         self.cu.in_context(context, make)
-        self.values = (ctypes.c_uint32 * SLOTS).from_address(self.host.value)
+        self.values = np.ctypeslib.as_array((ctypes.c_uint32 * (COUNTER_WORDS * SLOTS)).from_address(self.host.value))
 
     def record(self, encoder_of, slot: int) -> None:
         pass
 
     def after_submit(self, slot: int) -> None:
         def copy():
-            self.cu.call("cuMemcpyDtoHAsync_v2", self.host.value + 4 * slot, int(self.counter.device_address), 4, None)
+            self.cu.call("cuMemcpyDtoHAsync_v2", self.host.value + COUNTER_BYTES * slot,
+                         int(self.counter.device_address), COUNTER_BYTES, None)
             self.cu.call("cuEventRecord", self.events[slot], None)
 
         self.cu.in_context(self.context, copy)
 
     def read(self, slot: int) -> int:
         self.cu.in_context(self.context, lambda: self.cu.call("cuEventSynchronize", self.events[slot]))
-        return int(self.values[slot])
+        return counter_total(self.values[COUNTER_WORDS * slot:COUNTER_WORDS * (slot + 1)])
 
     def __del__(self):
         try:
