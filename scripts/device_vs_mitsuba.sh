@@ -6,7 +6,8 @@
 # in its own call: carry [".mitsuba"], after scripts/device_env.sh has set up the rest.
 #   ROUNDS=2 SCENES=arcade,temple bash scripts/device_vs_mitsuba.sh    # into $OUT
 # Rounds alternate Mitsuba and rtlab (CUDA, then Vulkan unless TRACERS says otherwise); MITSUBA_JSON=FILE
-# compares with an earlier call's Mitsuba figures instead of measuring them again.
+# compares with an earlier call's Mitsuba figures instead of measuring them again. OLD=DIR (an older tree's
+# app, core, rt, scenes and shaders, e.g. from git archive, carried) alternates with this one: rows "cuda-old".
 set -uo pipefail
 OUT=${OUT:-out}; SCENES=${SCENES:-arcade,street,cafe,park,temple}; TRACERS=${TRACERS:-cuda vulkan}
 mkdir -p "$OUT"
@@ -23,10 +24,14 @@ for round in $(seq 1 "${ROUNDS:-1}"); do
         || tail -5 "$OUT/mitsuba_$round.log"
   fi
   for t in $TRACERS; do
-    python3 -m app.cli bench --scenes "$SCENES" --configs shadows_one,gi_shadows --set "tracer=$t" \
-        --size 1920x1080 --seconds "${SECONDS_PER_CONFIG:-2}" --no-quality --path-frames 0 \
-        --out "/tmp/vs_mitsuba_$t" > "$OUT/${t}_$round.log" 2>&1 || tail -5 "$OUT/${t}_$round.log"
-    cp "/tmp/vs_mitsuba_$t/results.json" "$OUT/results_${t}_$round.json"
+    for tree in this ${OLD:+old}; do
+      dir=$PWD; name=$t; [ "$tree" = old ] && dir=$PWD/$OLD && name=$t-old
+      (cd "$dir" && PYTHONPATH=$dir:/tmp/site python3 -m app.cli bench --scenes "$SCENES" \
+        --configs shadows_one,gi_shadows --set "tracer=$t" --size 1920x1080 --seconds "${SECONDS_PER_CONFIG:-2}" \
+        --no-quality --path-frames 0 --out "/tmp/vs_mitsuba_$name") > "$OUT/${name}_$round.log" 2>&1 \
+        || tail -5 "$OUT/${name}_$round.log"
+      cp "/tmp/vs_mitsuba_$name/results.json" "$OUT/results_${name}_$round.json"
+    done
   done
 done
 python3 - "$OUT" <<'PY' | tee "$OUT/table.txt"
@@ -44,6 +49,6 @@ for m in sorted(out.glob("mitsuba_*.json")):
             ref = mi.get((x["scene"], pairs.get(x["config"], "")))
             if ref:
                 ms = x["frame_ms"]["mean"]
-                print(f"round {r} {t:6s} {x['scene']:7s} {x['config']:11s} rtlab {ms:6.2f} ms"
+                print(f"round {r} {t:10s} {x['scene']:7s} {x['config']:11s} rtlab {ms:6.2f} ms"
                       f"  mitsuba {ref:6.2f} ms  {ref / ms:4.2f}x  gpu {x.get('gpu_ms', 0):5.2f} ms")
 PY
