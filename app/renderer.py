@@ -350,7 +350,7 @@ class Renderer:
         # a device backend's own image ends the frame there: only 8 bits a channel come back
         if self._presents(backend, pass_name, names):
             job.present, job.gl_after = True, []
-            job.oidn = oidn_frame(pass_name, self.options) if device_oidn else None
+            job.oidn = oidn_frame(pass_name, self.options, self.scene) if device_oidn else None
         made = {c for n in job.traced for c in self.passes[n].writes}
         read = {c for n in job.gl_after for c in self.passes[n].reads}
         job.readback = tuple(sorted(made & read))

@@ -93,7 +93,7 @@ class Backend:
     def drain(self) -> None:
         """Until every frame in flight is done and read (end_frame with lag 0 of the last one)."""
 
-    def svgf(self, radiance, run) -> object:
+    def svgf(self, radiance, run, specular=None) -> object:
         """radiance (this frame's image) filtered by SVGF on the device (where "svgf" is in
         denoisers) as run (rt/svgf.py's SvgfFrame: options, iterations, what the radiance holds
         of the first hit, whether the last frame's history may be reprojected)."""

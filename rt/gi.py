@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from core.options import opt, register_group
-from rt.pass_base import RtPass
+from rt.pass_base import SPECULAR, RtPass
 
 
 @dataclass
@@ -23,7 +23,7 @@ register_group("gi", GIOptions)
 class GIPass(RtPass):
     name = "gi"
     options = GIOptions
-    writes = ("radiance", "rt_indirect")
+    writes = ("radiance", "rt_indirect", SPECULAR)
     stream = 4
     aux_channels = 3
 

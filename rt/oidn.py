@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from core.options import opt, register_group
 from rt.effects import radiance_terms
 
@@ -27,7 +29,29 @@ class OidnFrame:
     quality: str  # high, balanced or fast
     has_albedo: bool  # the radiance holds the first hit's albedo as a factor (RtPass.radiance_terms): OIDN's guide
     has_emission: bool  # and its emission, which bypasses the filter
+    ggx: bool = False  # surfaces shade with glTF's BRDF: OIDN's albedo is their diffuse plus specular albedo
 
 
-def oidn_frame(mode: str, options) -> OidnFrame:
-    return OidnFrame(str(options.group("oidn").quality), *radiance_terms(mode, options))
+def oidn_frame(mode: str, options, scene=None) -> OidnFrame:
+    ggx = scene is not None and scene.uses_ggx(options.get("brdf"))
+    return OidnFrame(str(options.group("oidn").quality), *radiance_terms(mode, options), ggx)
+
+
+def specular_albedo(base: np.ndarray, metallic: np.ndarray, roughness: np.ndarray, nv: np.ndarray) -> np.ndarray:
+    """The GGX lobe's directional albedo F0 A + B (Karis's fit of the split sum's scale and bias;
+    shaders/rt/common.slang and svgf_common.glsl have the same) of (..., 3) base colours, metallic,
+    perceptual roughness and n.v (...)."""
+    r = roughness[..., None]
+    k = r * np.array([-1.0, -0.0275, -0.572, 0.022], np.float32) + np.array([1.0, 0.0425, 1.04, -0.04], np.float32)
+    a004 = np.minimum(k[..., 0] ** 2, np.exp2(-9.28 * nv)) * k[..., 0] + k[..., 1]
+    scale, bias = -1.04 * a004 + k[..., 2], 1.04 * a004 + k[..., 3]
+    f0 = 0.04 * (1.0 - metallic[..., None]) + base * metallic[..., None]
+    return (f0 * scale[..., None] + bias[..., None]).astype(np.float32)
+
+
+def oidn_albedo(base: np.ndarray, metallic, roughness, nv, ggx: bool) -> np.ndarray:
+    """OIDN's albedo image: the base colour, or with glTF's BRDF the diffuse albedo plus the
+    specular one (OIDN's advice for glossy surfaces), clamped to [0, 1] (shaders/rt/oidn.slang)."""
+    if ggx:
+        base = base * (1.0 - metallic[..., None]) + specular_albedo(base, metallic, roughness, nv)
+    return np.clip(base, 0.0, 1.0)

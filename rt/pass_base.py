@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from core.passes import Pass
 
+# the first hit's specular radiance (with glTF's BRDF: the GGX lobe's part of the radiance, emission
+# left out), which the passes that shade with both lobes write besides radiance when a denoiser
+# asks: SVGF filters it apart from the diffuse part, each over its own albedo (rt/svgf.py)
+SPECULAR = "rt_specular"
+
 
 class RtPass(Pass):
     """A ray-traced effect, and its record (rt/effects.py collects them): name, options, writes
@@ -34,11 +39,21 @@ class RtPass(Pass):
 
     @classmethod
     def aux(cls) -> str | None:
-        """Its own image's channel: what it writes besides radiance."""
-        return next((c for c in cls.writes if c != "radiance"), None)
+        """Its own image's channel: what it writes besides radiance (and its specular part)."""
+        return next((c for c in cls.writes if c not in ("radiance", SPECULAR)), None)
+
+    @classmethod
+    def splits_specular(cls, opts, scene) -> bool:
+        """Whether its radiance has a specular part that it writes apart (SPECULAR) this frame:
+        where it does, the scene shades with glTF's BRDF (option brdf), the radiance holds the
+        material (not the light alone) and SVGF is to filter the part apart (svgf.split)."""
+        return (SPECULAR in cls.writes and bool(opts.get("svgf.split")) and scene.uses_ggx(opts.get("brdf"))
+                and cls.radiance_terms(opts)[0])
 
     def execute(self, frame) -> None:
-        wanted = tuple(c for c in self.writes if c in frame.wanted)
+        # its specular part only where it comes apart this frame (the denoisers read it if there)
+        wanted = tuple(c for c in self.writes if c in frame.wanted
+                       and (c != SPECULAR or self.splits_specular(frame.options, frame.scene)))
         with frame.profiler.cpu(self.name):
             frame.channels.update(frame.backend.trace(self.name, wanted))
 

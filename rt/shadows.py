@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from core.options import opt, register_group
-from rt.pass_base import RtPass
+from rt.pass_base import SPECULAR, RtPass
 
 
 @dataclass
@@ -21,7 +21,7 @@ register_group("shadows", ShadowsOptions)
 class ShadowsPass(RtPass):
     name = "shadows"
     options = ShadowsOptions
-    writes = ("radiance", "rt_direct")
+    writes = ("radiance", "rt_direct", SPECULAR)
     stream = 1
     aux_channels = 3
 

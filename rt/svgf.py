@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from core.options import opt, register_group
 from core.passes import Pass
 from rt.effects import PASSES, radiance_terms
+from rt.pass_base import SPECULAR
 
 
 @dataclass
@@ -29,6 +30,9 @@ class SvgfOptions:
     resolve: bool = opt(True, "average the filtered frames over time (reprojected, clamped where the camera moved), "
                         "as raw accumulation averages jittered frames: edges stop aliasing")
     resolve_alpha: float = opt(0.1, "weight of the new frame in that average (at least)", 0.01, 1.0)
+    split: bool = opt(True, "with glTF's BRDF: filter the specular part of the lighting apart from the diffuse, "
+                      "each over its own albedo (highlights are not divided by the texture nor blurred with the "
+                      "diffuse light)")
     device: bool = opt(True, "filter on the ray-tracing backend's GPU where it has one (vulkan, cuda: the frame "
                        "stays on the device); false, or on embree: as GL passes on the raster G-buffer")
 
@@ -44,6 +48,7 @@ class SvgfFrame:
     iterations: int  # a-trous iterations: the option's, or the effect's own (RtPass.svgf_iterations)
     has_albedo: bool  # the radiance holds the first hit's albedo as a factor (RtPass.radiance_terms)
     has_emission: bool  # and its emission
+    split: bool = False  # its specular part comes apart (RtPass.splits_specular): filtered in a run of its own
     history: bool = False  # the last frame's temporal history may be reprojected
     resolved: bool = False  # and its resolved image
 
@@ -52,7 +57,8 @@ def svgf_frame(frame, history: bool, resolved: bool) -> SvgfFrame:
     opts = frame.options.group("svgf")
     effect = PASSES.get(frame.mode)
     iterations = int(opts.iterations) or (effect.svgf_iterations if effect is not None else 3)
-    return SvgfFrame(opts, iterations, *radiance_terms(frame.mode, frame.options), history, resolved)
+    split = effect is not None and effect.splits_specular(frame.options, frame.scene)
+    return SvgfFrame(opts, iterations, *radiance_terms(frame.mode, frame.options), split, history, resolved)
 
 
 class SvgfHistory:
@@ -84,7 +90,7 @@ class DeviceSvgfPass(Pass):
 
     name = "svgf_device"
     device = "rt"
-    reads = ("radiance", "gbuffer")
+    reads = ("radiance", "gbuffer", SPECULAR)
     writes = ("radiance",)
 
     def __init__(self):
@@ -99,5 +105,6 @@ class DeviceSvgfPass(Pass):
     def execute(self, frame) -> None:
         with frame.profiler.cpu("svgf"):
             run = self.history.begin(frame, id(frame.backend))
-            frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], run)
+            frame.channels["radiance"] = frame.backend.svgf(frame.channels["radiance"], run,
+                                                            frame.channels.get(SPECULAR))
         self.history.end(run)

@@ -2,7 +2,8 @@
 // SVGF, step 3: one edge-avoiding a-trous wavelet iteration (5x5 B3-spline taps, `step` texels
 // apart): weights stop at depth (the pixel's plane), normal and luminance edges, the latter
 // scaled by the 3x3-blurred standard deviation, and the variance is filtered with the squared
-// weights. `remodulate` multiplies the albedo back and adds the emission (the last iteration).
+// weights. `remodulate` multiplies the albedo back and adds the emission (the last iteration),
+// or where the specular part is filtered apart (svgf_common.glsl), the diffuse run's result.
 #include "svgf_common.glsl"
 in vec2 uv;
 uniform sampler2D color;        // rgb: demodulated lighting, a: variance
@@ -13,6 +14,7 @@ uniform sampler2D g_emissive;   // the first hit's emission, added back by the l
 uniform sampler2D g_face;
 uniform sampler2D radiance;     // passed through where nothing is covered (the sky)
 uniform sampler2D guide;        // b: the luminance edges stop at (svgf_temporal.frag)
+uniform sampler2D diffuse;      // the diffuse run's result, which the specular run's last iteration adds to
 uniform int step;
 uniform float phi_color;
 uniform float phi_normal;
@@ -62,8 +64,9 @@ void main() {
         }
     vec4 f = sum_w > 0.0 ? vec4(sum.rgb / sum_w, sum.a / (sum_w * sum_w)) : c;
     if (remodulate != 0) {
-        vec3 em = emission(g_emissive, texelFetch(radiance, px, 0).rgb, px);
-        f = vec4(f.rgb * demod_albedo(texelFetch(g_albedo, px, 0).rgb) + em, 1.0);
+        vec3 rest = split != 0 && signal == 1 ? texelFetch(diffuse, px, 0).rgb
+                                              : emission(g_emissive, texelFetch(radiance, px, 0).rgb, px);
+        f = vec4(f.rgb * demod_factor(texelFetch(g_albedo, px, 0), texelFetch(g_normal, px, 0), pos.xyz) + rest, 1.0);
     }
     out_color = f;
 }

@@ -14,6 +14,7 @@ uniform sampler2D g_albedo;
 uniform sampler2D g_emissive;   // the first hit's emission: not filtered (svgf_common.glsl: emission)
 uniform sampler2D g_face;       // w > 0: covered
 uniform sampler2D g_motion;     // pixels moved since the previous frame (no jitter)
+uniform sampler2D rt_specular;  // the radiance's specular part, where split (svgf_common.glsl)
 uniform sampler2D prev_color;   // demodulated lighting, a: history length (frames)
 uniform sampler2D prev_moments; // luminance moments m1, m2
 uniform sampler2D prev_position;
@@ -35,7 +36,9 @@ void main() {
     }
     vec4 pos = texelFetch(g_position, px, 0);
     vec3 n = texelFetch(g_normal, px, 0).xyz;
-    vec3 illum = (rad - emission(g_emissive, rad, px)) / demod_albedo(texelFetch(g_albedo, px, 0).rgb);
+    vec3 spec = split != 0 ? texelFetch(rt_specular, px, 0).rgb : vec3(0.0);
+    vec3 illum = signal_part(rad, emission(g_emissive, rad, px), spec)
+                 / demod_factor(texelFetch(g_albedo, px, 0), vec4(n, texelFetch(g_normal, px, 0).w), pos.xyz);
     float l = luma(illum);
     vec2 prev = previous_texel(gl_FragCoord.xy, texelFetch(g_motion, px, 0).xy);
     ivec2 base = ivec2(floor(prev));

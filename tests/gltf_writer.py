@@ -245,3 +245,19 @@ def ggx_grid_document():
             meshes.append((*uv_sphere(((j - 1) * 1.1, (1 - i) * 1.1, 0.0), 0.5, 48, 24), len(materials) - 1))
     lights = [{"type": "point", "intensity": 30.0, "color": [1, 1, 1], "node": {"translation": [1.5, 2.0, 3.0]}}]
     return mesh_scene(meshes, materials, lights, ((0.0, 0.0, 5.2), (0.0, 0.0, 0.0, 1.0), 0.75))
+
+
+def checker_glossy_document():
+    """A glossy dielectric floor (roughness 0.25) textured as a black-and-white checker, under one
+    point light that makes a highlight across the squares, seen from above at an angle: its
+    specular part is what demodulating by the texture gets wrong (tests/test_denoise.py)."""
+    n = 64
+    yy, xx = np.mgrid[0:n, 0:n]
+    c = ((xx // 8 + yy // 8) % 2).astype(np.float32)
+    tex = (np.stack([c * 0.85 + 0.03] * 3, -1) ** (1 / 2.2) * 255).astype(np.uint8)
+    materials = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0,
+                                           "roughnessFactor": 0.25}}]
+    lights = [{"type": "point", "intensity": 15.0, "color": [1, 1, 1], "node": {"translation": [0.0, 1.2, -1.0]}}]
+    half = -np.arctan2(2.0, 3.0) / 2  # looking down at the floor
+    return textured_scene(materials, [tex], [((0, 0, 0), 4.0, 0, "up")], lights,
+                          ((0, 2.0, 3.0), (float(np.sin(half)), 0, 0, float(np.cos(half))), 0.9))

@@ -2,7 +2,9 @@
 GL filter (app/raster/svgf.py) as compute kernels: given the same radiance and G-buffer, frame
 after frame with a moving camera, both give the same image to float rounding; and where the
 device filters, the frame's graph has no GL SVGF, no raster G-buffer and no read-back."""
+import json
 import os
+import warnings
 
 import numpy as np
 import pytest
@@ -14,7 +16,10 @@ from app.profiler import Profiler
 from app.raster.svgf import SvgfPass
 from app.raster.upload import Uploads, read_rgba
 from app.renderer import Renderer
+from rt.pass_base import SPECULAR
 from scenes.builtin import build_builtin
+from scenes.loaders import load_scene
+from tests.gltf_writer import checker_glossy_document
 
 W, H = 64, 48
 TRACER = os.environ.get("RTLAB_TEST_GPU_TRACER", "vulkan")  # cuda on a machine with an NVIDIA GPU
@@ -45,15 +50,30 @@ def gl_inputs(seen: dict) -> dict:
     position = np.c_[g["position"][:, :3], g["albedo"][:, 3]]
     motion = np.where(covered[:, None], inputs.motion(g["position"][:, :3]), 0.0)
     face = np.c_[g["true_normal"][:, :3], covered.astype(np.float32)]
-    return {"radiance": seen["radiance"], "g_position": position, "g_normal": g["normal"],
-            "g_albedo": g["albedo"][:, :3], "g_emissive": g["emissive"][:, :3], "g_face": face,
-            "g_motion": motion[:, :2]}
+    found = {"radiance": seen["radiance"], "g_position": position, "g_normal": g["normal"],
+             "g_albedo": np.c_[g["albedo"][:, :3], g["true_normal"][:, 3]], "g_emissive": g["emissive"][:, :3],
+             "g_face": face, "g_motion": motion[:, :2]}
+    if seen["specular"] is not None:
+        found[SPECULAR] = seen["specular"]
+    return found
 
 
-# greyscale AO: the radiance is the lighting itself; GI: albedo x lighting + emission
-@pytest.mark.parametrize("mode", ["ao", "gi"])
-def test_the_device_filter_is_the_gl_filter(gl, gpu_device, mode):
-    scene = build_builtin("cafe")  # emitters, sky through the windows, edges
+def _scene(name: str, tmp_path):
+    if name != "checker":
+        return build_builtin(name)
+    path = tmp_path / "checker.gltf"
+    path.write_text(json.dumps(checker_glossy_document()))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_scene(str(path))
+
+
+# greyscale AO: the radiance is the lighting itself; GI: albedo x lighting + emission (the cafe:
+# emitters, sky through the windows, edges); GI under glTF's BRDF on a glossy checker: its
+# diffuse and specular parts filtered apart (rt_specular)
+@pytest.mark.parametrize("mode,scene_name", [("ao", "cafe"), ("gi", "cafe"), ("gi", "checker")])
+def test_the_device_filter_is_the_gl_filter(gl, gpu_device, mode, scene_name, tmp_path):
+    scene = _scene(scene_name, tmp_path)
     opts = Options()
     opts.apply([f"tracer={TRACER}", "denoise=svgf", "accumulate=false", "ao.rays_per_pixel=1", "gi.rays_per_pixel=1"])
     r = Renderer(gl, scene, opts)
@@ -61,13 +81,15 @@ def test_the_device_filter_is_the_gl_filter(gl, gpu_device, mode):
     backend = r.ray_tracing()
     original = backend.svgf
 
-    def watched(radiance, run):
+    def watched(radiance, run, specular=None):
         n = W * H
         backend.wait()  # the effect's work, recorded, done before its image is read here
+        assert run.split == (scene_name == "checker") and (specular is not None) == run.split
         seen = {"radiance": radiance.to_numpy().copy(), "inputs": backend.inputs, "history": run.history,
                 "gbuffer": {k: b.to_numpy().view(np.float32)[: 4 * n].reshape(n, 4).copy()
-                            for k, b in backend.gbuffer.items()}}
-        out = original(radiance, run)
+                            for k, b in backend.gbuffer.items()},
+                "specular": specular.to_numpy().copy() if specular is not None else None}
+        out = original(radiance, run, specular)
         frames.append((seen, out))
         return out
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from core.errors import UserError
 from core.passes import Pass
-from rt.oidn import OidnOptions, oidn_frame
+from rt.oidn import OidnOptions, oidn_albedo, oidn_frame
 
 
 def _read(tex) -> np.ndarray:
@@ -24,7 +24,7 @@ def _read(tex) -> np.ndarray:
 class OidnPass(Pass):
     name = "oidn"
     options = OidnOptions
-    reads = ("accumulated", "g_albedo", "g_normal", "g_emissive", "g_face")
+    reads = ("accumulated", "g_albedo", "g_normal", "g_emissive", "g_face", "g_position")
     writes = ("accumulated",)
 
     def __init__(self, ctx):
@@ -36,7 +36,7 @@ class OidnPass(Pass):
             import pyoidn
         except ImportError as e:  # a declared dependency: only a broken install lacks it
             raise UserError(f"denoise=oidn needs the pyoidn package ({e})") from None
-        run = oidn_frame(frame.mode, frame.options)
+        run = oidn_frame(frame.mode, frame.options, frame.scene)
         with frame.profiler.cpu("oidn"):
             shown = np.maximum(_read(frame.channels["accumulated"])[..., :3], 0.0)
             covered = _read(frame.channels["g_face"])[..., 3:4] > 0  # no surface: no albedo, no normal
@@ -46,9 +46,16 @@ class OidnPass(Pass):
             # in it for OIDN to tell texture from noise by: its guide is then white)
             emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered * run.has_emission
             color = np.ascontiguousarray(shown - emission)
-            albedo = np.clip(_read(frame.channels["g_albedo"])[..., :3], 0.0, 1.0) if run.has_albedo else 1.0
+            g_normal, g_albedo = _read(frame.channels["g_normal"]), _read(frame.channels["g_albedo"])
+            if run.has_albedo:
+                to_eye = np.asarray(frame.camera.eye, np.float32) - _read(frame.channels["g_position"])[..., :3]
+                nv = np.clip(np.einsum("...i,...i", g_normal[..., :3], to_eye)
+                             / np.maximum(np.linalg.norm(to_eye, axis=-1), 1e-12), 0.0, 1.0)
+                albedo = oidn_albedo(g_albedo[..., :3], g_albedo[..., 3], g_normal[..., 3], nv, run.ggx)
+            else:
+                albedo = 1.0
             albedo = np.ascontiguousarray(np.broadcast_to(albedo * covered, shown.shape), np.float32)
-            normal = np.ascontiguousarray(_read(frame.channels["g_normal"])[..., :3] * covered)
+            normal = np.ascontiguousarray(g_normal[..., :3] * covered)
             out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=run.quality)
             out = np.where(covered, np.maximum(out, 0.0) + emission, shown)  # the sky as it was
             w, h = frame.width, frame.height

@@ -18,22 +18,17 @@ from __future__ import annotations
 from app.gl_context import bind_channels, fullscreen, set_uniform
 from app.raster.targets import Targets
 from core.passes import Pass
+from rt.pass_base import SPECULAR
 from rt.svgf import SvgfHistory, SvgfOptions
 
 GBUFFER = ("g_position", "g_normal", "g_albedo", "g_emissive", "g_face")
 
 
-class SvgfPass(Pass):
-    """The radiance of the frame, filtered; history kept from frame to frame (not reset by
-    camera motion: that is what the reprojection is for)."""
-
-    name = "svgf"
-    options = SvgfOptions
-    reads = ("radiance", "g_position", "g_normal", "g_albedo", "g_emissive", "g_face", "g_motion")
-    writes = ("radiance",)
+class _Run:
+    """The targets of one run of the filter (the whole lighting, or one of its parts): its
+    temporal average, the history the next frame reprojects, the variance, the a-trous images."""
 
     def __init__(self, ctx):
-        self.ctx = ctx
         self.temporal = Targets(ctx, {"color": (4, "f4"), "moments": (4, "f4")})
         self.history = Targets(ctx, {"color": (4, "f4"), "moments": (4, "f4"), "position": (4, "f4"),
                                      "normal": (4, "f4")})
@@ -41,6 +36,24 @@ class SvgfPass(Pass):
         self.ping = Targets(ctx, {"c": (4, "f4")})
         self.pong = Targets(ctx, {"c": (4, "f4")})
         self.out = Targets(ctx, {"c": (4, "f4")})
+
+    def all(self) -> tuple:
+        return self.temporal, self.history, self.variance, self.ping, self.pong, self.out
+
+
+class SvgfPass(Pass):
+    """The radiance of the frame, filtered; history kept from frame to frame (not reset by
+    camera motion: that is what the reprojection is for). With glTF's BRDF the radiance's
+    specular part (SPECULAR) is filtered in a run of its own, after the diffuse part's."""
+
+    name = "svgf"
+    options = SvgfOptions
+    reads = ("radiance", "g_position", "g_normal", "g_albedo", "g_emissive", "g_face", "g_motion", SPECULAR)
+    writes = ("radiance",)
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.runs = [_Run(ctx), _Run(ctx)]  # the diffuse part (or the whole lighting), the specular
         self.resolved = [Targets(ctx, {"c": (4, "f4")}), Targets(ctx, {"c": (4, "f4")})]  # this frame's, the last
         self.kept = SvgfHistory()  # whether the history may be reprojected
 
@@ -53,49 +66,61 @@ class SvgfPass(Pass):
     def execute(self, frame) -> None:
         w, h = frame.width, frame.height
         run = self.kept.begin(frame)
-        opts = run.opts
-        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
+        split = run.split and SPECULAR in frame.channels
+        for t in (*self.runs[0].all(), *(self.runs[1].all() if split else ()), *self.resolved):
             t.ensure(w, h)
-        terms = {"has_albedo": int(run.has_albedo), "has_emission": int(run.has_emission)}
         with frame.profiler.gpu(self.ctx, "svgf"):
-            prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
-            self._draw(self.temporal, prog, vao, frame, ("radiance",) + GBUFFER + ("g_motion",), {
-                "prev_color": self.history["color"], "prev_moments": self.history["moments"],
-                "prev_position": self.history["position"], "prev_normal": self.history["normal"]},
-                has_history=int(run.history), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha), **terms)
-            prog, vao = fullscreen(self.ctx, "svgf_variance.frag")
-            self._draw(self.variance, prog, vao, frame, ("g_position", "g_normal", "g_face"), {
-                "color": self.temporal["color"], "moments": self.temporal["moments"]},
-                phi_normal=float(opts.phi_normal), alpha=float(opts.alpha), of_average=int(not opts.feedback))
-            source = self.variance["c"]
-            prog, vao = fullscreen(self.ctx, "svgf_atrous.frag")
-            n = run.iterations
-            for i in range(n):
-                last = i == n - 1
-                target = self.out if last else (self.ping if i % 2 == 0 else self.pong)
-                self._draw(target, prog, vao, frame, GBUFFER + ("radiance",), {"color": source,
-                                                                             "guide": self.temporal["moments"]},
-                           step=1 << i, phi_color=float(opts.phi_color), phi_normal=float(opts.phi_normal),
-                           phi_depth=float(opts.phi_depth), remodulate=int(last), **terms)
-                source = target["c"]
-                if i == 0:  # what the next frame reprojects: the temporal average (or the first iteration's)
-                    keep, kvao = fullscreen(self.ctx, "svgf_history.frag")
-                    if opts.feedback:
-                        first = self.variance["c"] if last else source  # one iteration: its input
-                    else:
-                        first = self.temporal["color"]
-                    self._draw(self.history, keep, kvao, frame, ("g_position", "g_normal", "g_face"), {
-                        "filtered": first, "color": self.temporal["color"], "moments": self.temporal["moments"]})
-            result = self.out
-            if opts.resolve:
-                result, last = self.resolved
+            result = self._filter(frame, run, self.runs[0], split, 0, None)
+            if split:
+                result = self._filter(frame, run, self.runs[1], split, 1, result)
+            if run.opts.resolve:
+                target, last = self.resolved
                 prog, vao = fullscreen(self.ctx, "svgf_resolve.frag")
-                self._draw(result, prog, vao, frame, ("g_motion",), {"current": self.out["c"],
-                                                                     "previous": last["c"]},
-                           has_history=int(run.resolved), alpha=float(opts.resolve_alpha))
+                self._draw(target, prog, vao, frame, ("g_motion",), {"current": result, "previous": last["c"]},
+                           has_history=int(run.resolved), alpha=float(run.opts.resolve_alpha))
                 self.resolved.reverse()
+                result = target["c"]
         self.kept.end(run)
-        frame.channels["radiance"] = result["c"]
+        frame.channels["radiance"] = result
+
+    def _filter(self, frame, run, targets: _Run, split: bool, signal: int, diffuse):
+        """One run over the lighting (signal 0: the diffuse part, or the whole where not split;
+        1: the specular part, whose last iteration adds the diffuse run's result): its image."""
+        opts = run.opts
+        terms = {"has_albedo": int(run.has_albedo), "has_emission": int(run.has_emission), "split": int(split),
+                 "signal": signal, "eye": tuple(map(float, frame.camera.eye))}
+        spec = (SPECULAR,) if split else ()
+        prog, vao = fullscreen(self.ctx, "svgf_temporal.frag")
+        self._draw(targets.temporal, prog, vao, frame, ("radiance",) + GBUFFER + ("g_motion",) + spec, {
+            "prev_color": targets.history["color"], "prev_moments": targets.history["moments"],
+            "prev_position": targets.history["position"], "prev_normal": targets.history["normal"]},
+            has_history=int(run.history), alpha=float(opts.alpha), moments_alpha=float(opts.moments_alpha), **terms)
+        prog, vao = fullscreen(self.ctx, "svgf_variance.frag")
+        self._draw(targets.variance, prog, vao, frame, ("g_position", "g_normal", "g_face"), {
+            "color": targets.temporal["color"], "moments": targets.temporal["moments"]},
+            phi_normal=float(opts.phi_normal), alpha=float(opts.alpha), of_average=int(not opts.feedback))
+        source = targets.variance["c"]
+        prog, vao = fullscreen(self.ctx, "svgf_atrous.frag")
+        n = run.iterations
+        extra = {"diffuse": diffuse} if diffuse is not None else {}
+        for i in range(n):
+            last = i == n - 1
+            target = targets.out if last else (targets.ping if i % 2 == 0 else targets.pong)
+            self._draw(target, prog, vao, frame, GBUFFER + ("radiance",), {"color": source,
+                                                                         "guide": targets.temporal["moments"],
+                                                                         **extra},
+                       step=1 << i, phi_color=float(opts.phi_color), phi_normal=float(opts.phi_normal),
+                       phi_depth=float(opts.phi_depth), remodulate=int(last), **terms)
+            source = target["c"]
+            if i == 0:  # what the next frame reprojects: the temporal average (or the first iteration's)
+                keep, kvao = fullscreen(self.ctx, "svgf_history.frag")
+                if opts.feedback:
+                    first = targets.variance["c"] if last else source  # one iteration: its input
+                else:
+                    first = targets.temporal["color"]
+                self._draw(targets.history, keep, kvao, frame, ("g_position", "g_normal", "g_face"), {
+                    "filtered": first, "color": targets.temporal["color"], "moments": targets.temporal["moments"]})
+        return targets.out["c"]
 
     def _draw(self, target, prog, vao, frame, channels, textures: dict, **uniforms) -> None:
         target.fbo.use()
@@ -109,5 +134,5 @@ class SvgfPass(Pass):
         vao.render(vertices=3)
 
     def release(self) -> None:
-        for t in (self.temporal, self.history, self.variance, self.ping, self.pong, self.out, *self.resolved):
+        for t in (*self.runs[0].all(), *self.runs[1].all(), *self.resolved):
             t.release()

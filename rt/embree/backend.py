@@ -17,6 +17,7 @@ from rt.embree.frame import RtFrame
 from rt.embree.gbuffer import from_raster, trace_primary
 from rt.embree.shading import SceneData
 from rt.embree.tracer import EmbreeTracer
+from rt.pass_base import SPECULAR
 
 
 def trace_function(effect: str):
@@ -69,6 +70,7 @@ class EmbreeBackend(Backend):
     def trace(self, effect: str, channels: tuple[str, ...] = ("radiance",)) -> dict:
         rf = self.frame
         rf.aux = AUX_CHANNEL.get(effect) in channels  # the effect's second image only when asked
+        rf.specular = SPECULAR in channels
         result = trace_function(effect)(rf)
         return {c: result[c] for c in channels}
 

@@ -42,6 +42,12 @@ def _lobes(base, metallic, w, dv, k):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
+def _specular(base, metallic, w, dv, k):
+    """One channel of f(v, l)'s specular lobe x k: F D V."""
+    return _fresnel(base, metallic, w) * dv * k
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
 def specular_share(nv, br, bg, bb, metallic):
     """The probability of the specular lobe at n.v = nv: F's luminance against c_diff (1 - F)'s,
     at most P_SPEC_MAX (brdf.slang's specular_share, clamped)."""
@@ -57,23 +63,24 @@ def specular_share(nv, br, bg, bb, metallic):
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def bounce_weights(n, v, l, base, metallic, a, p):
-    """(w_r, w_g, w_b, w_mean): the mixture estimator's weights (module notes) of direction l
-    drawn at a point of unit normal n seen from v (each an (x, y, z)), of base colour base
-    (r, g, b); zero where l is below n."""
+    """(w_r, w_g, w_b, w_mean, s_r, s_g, s_b): the mixture estimator's weights (module notes) of
+    direction l drawn at a point of unit normal n seen from v (each an (x, y, z)), of base colour
+    base (r, g, b), and the specular lobe's part of w (rt_specular); zero where l is below n."""
     nx, ny, nz = n
     vx, vy, vz = v
     lx, ly, lz = l
     br, bg, bb = base
     nl = nx * lx + ny * ly + nz * lz
     if not nl > ZERO:
-        return ZERO, ZERO, ZERO, ZERO
+        return ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO
     w, dv = ggx_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, a)
     pdf = p * visible_normal_density(nx, ny, nz, vx, vy, vz, lx, ly, lz, a) + (ONE - p) * nl * INV_PI
     if not pdf > ZERO:
-        return ZERO, ZERO, ZERO, ZERO
+        return ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, ZERO
     k = nl / pdf
     return (_lobes(br, metallic, w, dv, k), _lobes(bg, metallic, w, dv, k), _lobes(bb, metallic, w, dv, k),
-            k * INV_PI)
+            k * INV_PI, _specular(br, metallic, w, dv, k), _specular(bg, metallic, w, dv, k),
+            _specular(bb, metallic, w, dv, k))
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -91,8 +98,8 @@ def brdf_live(G, g0, keys, dim, lobe_dim, surf, tmax_value, packed, tr, weights)
     """hemisphere_live (raygen.py) with directions from the points' BRDF: point i (surf: its
     view V[i], towards the viewer, and material albedo[i], metallic[i], rough[i]) gets its ray
     packed into packed (origin, direction, tmax, index) where it leaves above both its shading
-    and its true surface, and weights[i] = (w_r, w_g, w_b, w_mean) (bounce_weights; zero for a
-    point whose ray is not packed). Returns the count."""
+    and its true surface, and weights[i] = (w_r, w_g, w_b, w_mean, s_r, s_g, s_b) (bounce_weights;
+    zero for a point whose ray is not packed). Returns the count."""
     V, albedo, metallic, rough = surf
     packed = without_light(packed)
     n = keys.shape[0]
@@ -112,13 +119,11 @@ def brdf_live(G, g0, keys, dim, lobe_dim, surf, tmax_value, packed, tr, weights)
             key = keys[i]
             lx, ly, lz = bounce_direction(nx, ny, nz, vx, vy, vz, a, p, uniform(key, lobe_dim), uniform(key, dim),
                                           uniform(key, dim + 1))
-            wr, wg, wb, wm = bounce_weights((nx, ny, nz), (vx, vy, vz), (lx, ly, lz), (br, bg, bb), metallic[i], a, p)
-            above = G[GX, c] * lx + G[GY, c] * ly + G[GZ, c] * lz > ZERO and wm > ZERO
+            ws = bounce_weights((nx, ny, nz), (vx, vy, vz), (lx, ly, lz), (br, bg, bb), metallic[i], a, p)
+            above = G[GX, c] * lx + G[GY, c] * ly + G[GZ, c] * lz > ZERO and ws[3] > ZERO
             blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j] = lx, ly, lz
             blk[CARRIED, j] = ONE if above else ZERO
-            if above:
-                weights[i, 0], weights[i, 1], weights[i, 2], weights[i, 3] = wr, wg, wb, wm
-            else:
-                weights[i, 0], weights[i, 1], weights[i, 2], weights[i, 3] = ZERO, ZERO, ZERO, ZERO
+            for k in range(7):
+                weights[i, k] = ws[k] if above else ZERO
         m = _emit(G, g0, s0, s1 - s0, blk, m, tmax_value, packed, trace, weights, False)
     return m

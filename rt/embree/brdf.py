@@ -96,6 +96,13 @@ def outgoing(acc, i, a, base, metallic):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
+def specular_out(acc, i, a, base, metallic):
+    """outgoing's specular lobe alone: F0 sum e D V + (1 - F0) sum e D V w."""
+    r = f0(base, metallic)
+    return r * acc[i, SUM_EDV + a] + (ONE - r) * acc[i, SUM_EDVW + a]
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
 def light_out(acc, i, a, base, metallic):
     """Direct radiance leaving point i, channel a, from its accumulator: GGX (GGX_COLS columns)
     or Lambert (base / pi x the sum)."""

@@ -33,6 +33,9 @@ class RtFrame:
     # The display reads radiance alone, so the renderer asks for the others only when told to
     # (Renderer.pass_outputs); without them a pass writes one full image a frame, not two.
     aux: bool = True
+    # whether they write their first hit's specular part (rt_specular: the denoisers filter it
+    # apart from the diffuse, rt/pass_base.py SPECULAR), which only a denoiser reads
+    specular: bool = False
 
     @property
     def ggx(self) -> bool:
@@ -62,16 +65,21 @@ class RtFrame:
         aux = self._buffer(f"image{channels}{name}", channels) if self.aux else no_image(channels)
         return self._buffer("background", 3), aux
 
-    def kernel_frame(self, out: np.ndarray, aux: np.ndarray):
+    def kernel_frame(self, out: np.ndarray, aux: np.ndarray, spec: np.ndarray | None = None):
         """This frame as the whole-frame kernels read it (kernel_args.FrameArgs), writing into
-        out and aux (frame_outputs)."""
+        out and aux (frame_outputs), and spec (specular_image) where the pass makes it."""
         from rt.embree.gather import env_args
         from rt.embree.kernel_args import FrameArgs
         from rt.environment import env_dist_args
 
         return FrameArgs(self.gb.soa, self.gb.index, self.gb.view_dir, self.gb.surface.arrays(),
                          env_args(self.environment), env_dist_args(self.environment), self.tracer.frame_target(), out,
-                         aux)
+                         aux, no_image(3) if spec is None else spec)
+
+    def specular_image(self) -> np.ndarray:
+        """The first hit's specular radiance (rt_specular, zero where the kernels write none:
+        the sky, Lambert surfaces), or where no denoiser asks for it an empty (0, 3) array."""
+        return self.image(3, 0.0, "specular") if self.specular else no_image(3)
 
     def aux_image(self, channels: int = 3, fill=0.0, name: str = "") -> np.ndarray:
         """image(channels, fill, name) for a pass's output besides radiance, or when the frame
@@ -79,9 +87,15 @@ class RtFrame:
         ChunkFrame.put write nothing into it."""
         return self.image(channels, fill, name) if self.aux else no_image(channels)
 
-    def outputs(self, radiance: np.ndarray, **aux) -> dict:
-        """A pass's results: radiance, and its other images (by name) when the frame makes them."""
-        return {"radiance": radiance, **(aux if self.aux else {})}
+    def outputs(self, radiance: np.ndarray, specular: np.ndarray | None = None, **aux) -> dict:
+        """A pass's results: radiance, its other images (by name) when the frame makes them, and
+        its specular part (specular_image) when asked."""
+        from rt.pass_base import SPECULAR
+
+        found = {"radiance": radiance, **(aux if self.aux else {})}
+        if self.specular and specular is not None:
+            found[SPECULAR] = specular
+        return found
 
     def for_chunks(self, work, streams: tuple = ()) -> None:
         """work(ChunkFrame) for runs of covered pixels, on the tracer's threads (chunks sized by

@@ -94,28 +94,37 @@ def put_rows(image, pix, values):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def write_lit(out, pix, emissive, albedo, metallic, direct, grey):
+def write_lit(out, spec, pix, emissive, albedo, metallic, direct, grey):
     """out[pix[j]] = emissive + the direct light's radiance (brdf.light_out; direct: the light
-    accumulator); grey: a white dielectric, no emission."""
+    accumulator); grey: a white dielectric, no emission. spec (unless empty: not asked for)
+    gets the specular lobe's part of it where the accumulator has GGX's sums (brdf.specular_out)."""
+    split = spec.shape[0] > 0 and direct.shape[1] >= brdf.GGX_COLS
     for j in range(pix.shape[0]):
         p = pix[j]
         m = ZERO if grey else metallic[j]
         for a in range(3):
-            light = light_out(direct, j, a, ONE if grey else albedo[j, a], m)
+            base = ONE if grey else albedo[j, a]
+            light = light_out(direct, j, a, base, m)
             out[p, a] = light if grey else emissive[j, a] + light
+            if split:
+                spec[p, a] = brdf.specular_out(direct, j, a, base, m)
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def write_gi(out, pix, emissive, albedo, metallic, direct, indirect, outgoing, ggx):
+def write_gi(out, spec, pix, emissive, albedo, metallic, direct, indirect, outgoing, outgoing_spec, ggx):
     """The GI pass's out[pix[j]] = emissive + the direct light's radiance (brdf.light_out) + the
     indirect light leaving: with glTF's BRDF (ggx) outgoing[j], what the BRDF-sampled bounces
-    (bounce.py) brought, else indirect[j] (incoming) x the albedo."""
+    (bounce.py) brought, else indirect[j] (incoming) x the albedo. With ggx, spec (unless empty)
+    gets the specular lobe's part of both (brdf.specular_out, outgoing_spec)."""
+    split = ggx and spec.shape[0] > 0
     for j in range(pix.shape[0]):
         p = pix[j]
         for a in range(3):
             light = light_out(direct, j, a, albedo[j, a], metallic[j])
             light += outgoing[j, a] if ggx else indirect[j, a] * albedo[j, a]
             out[p, a] = emissive[j, a] + light
+            if split:
+                spec[p, a] = brdf.specular_out(direct, j, a, albedo[j, a], metallic[j]) + outgoing_spec[j, a]
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)

@@ -47,19 +47,21 @@ def gi_frame(counter, bounds, scene, frame, base, rays, bounces, shadowed, ggx):
                                             lit, direct)
         indirect = np.zeros((nb, 3), np.float32)
         outgoing = np.zeros((nb, 3), np.float32)
+        outgoing_spec = np.zeros((nb if ggx else 0, 3), np.float32)
         for r in range(rays):
-            traced += _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoing)
+            traced += _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoing, outgoing_spec)
         indirect /= np.float32(rays)
         outgoing /= np.float32(rays)
-        gather.write_gi(frame.out, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1], frame.metallic[b0:b1],
-                        direct, indirect, outgoing, ggx)
+        outgoing_spec /= np.float32(rays)
+        gather.write_gi(frame.out, frame.spec, pix[b0:b1], frame.emissive[b0:b1], frame.albedo[b0:b1],
+                        frame.metallic[b0:b1], direct, indirect, outgoing, outgoing_spec, ggx)
         gather.put_rows(frame.aux, pix[b0:b1], indirect)
         gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
     return traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoing):
+def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoing, outgoing_spec):
     """Path r of every point of the block starting at b0 (keys: theirs): per bounce a
     cosine-weighted ray (ggx: one from the point's BRDF, bounce.py), its closest hit (the
     environment where it misses), the hit shaded and lit by its own light sample (lit: the
@@ -67,7 +69,8 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
     the albedos of the path's earlier hits, is added into indirect (one row per point: the
     incoming indirect light); with ggx, times the BRDF weights of the path's points, into
     outgoing (the indirect light leaving), and into indirect with the primary point's
-    cosine-lobe weight in place of its BRDF's. Random dimensions: 6 per bounce from 4 + 6 x
+    cosine-lobe weight in place of its BRDF's, and into outgoing_spec with the primary point's
+    specular lobe's weight in place of its BRDF's (rt_specular). Random dimensions: 6 per bounce from 4 + 6 x
     (bounces x r), 3 a bounce for the hits' environment samples from 4 + 6 x bounces x rays +
     3 x (bounces x r), and with ggx 1 a bounce for the lobe from 4 + 9 x bounces x rays +
     bounces x r. Returns the rays traced."""
@@ -92,10 +95,11 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
     # then times the path's throughput into its row
     into = indirect if bounces == 1 and not ggx else level_light
     # with ggx: the points' view directions and materials, their rays' weights (bounce.brdf_live)
-    # and the paths' weights so far for outgoing (thr_a) and for indirect (thi_a)
+    # and the paths' weights so far for outgoing (thr_a), for indirect (thi_a) and outgoing_spec (ths_a)
     ng = nb if ggx else 0  # Lambert's paths need none of them
-    V, W = np.empty((ng, 3), np.float32), np.empty((ng, 4), np.float32)
+    V, W = np.empty((ng, 3), np.float32), np.empty((ng, 7), np.float32)
     thi_a, thi_b = np.ones((ng, 3), np.float32), np.empty((ng, 3), np.float32)
+    ths_a, ths_b = np.ones((ng, 3), np.float32), np.empty((ng, 3), np.float32)
     m_alb, m_metal, m_rough = frame.albedo[b0:b0 + nb], frame.metallic[b0:b0 + nb], frame.roughness[b0:b0 + nb]
     if ggx:
         for i in range(nb):
@@ -131,7 +135,7 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
                                             scene.far, lit, hit_direct, alb[:k], metal[:k])
         gather.add_bounce(into, owner, hits, k, alb[:k], metal[:k], hit_direct)
         if ggx:  # ---- this bounce's light, weighted, into its paths' rows ----
-            _weigh(level_light, W, level, row_a, thr_a, thi_a, npts, indirect, outgoing)
+            _weigh(level_light, W, level, row_a, (thr_a, thi_a, ths_a), npts, (indirect, outgoing, outgoing_spec))
         if bounces == 1:
             break
         # ---- this bounce's light into its paths' rows; the hits start the next bounce ----
@@ -146,6 +150,7 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
                 if ggx:
                     thr_b[i, a] = thr_a[q, a] * W[q, a]
                     thi_b[i, a] = thi_a[q, a] * (W[q, 3] if level == 0 else W[q, a])
+                    ths_b[i, a] = ths_a[q, a] * (W[q, 4 + a] if level == 0 else W[q, a])
                 else:
                     thr_b[i, a] = thr_a[q, a] * alb[i, a]
         if ggx:
@@ -158,29 +163,35 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
         row_a, row_b = row_b, row_a
         thr_a, thr_b = thr_b, thr_a
         thi_a, thi_b = thi_b, thi_a
+        ths_a, ths_b = ths_b, ths_a
     return traced
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _weigh(level_light, W, level, row, thr, thi, npts, indirect, outgoing):
+def _weigh(level_light, W, level, row, paths, npts, sums):
     """With glTF's BRDF: the light that each point's ray brought (level_light), times its
-    weights W (bounce.brdf_live) and its path's so far, into its path's row of outgoing (thr:
-    the BRDF's weights) and of indirect (thi; the primary point's ray by its cosine-lobe
-    weight W[:, 3])."""
+    weights W (bounce.brdf_live) and its path's so far (paths: thr, thi, ths), into its path's row
+    of the sums: outgoing (thr: the BRDF's weights), indirect (thi; the primary point's ray by its
+    cosine-lobe weight W[:, 3]) and outgoing_spec (ths; the primary point's ray by its specular
+    lobe's weights W[:, 4:7])."""
+    thr, thi, ths = paths
+    indirect, outgoing, outgoing_spec = sums
     for i in range(npts):
         p = row[i]
         for a in range(3):
             light = level_light[i, a]
             outgoing[p, a] += thr[i, a] * W[i, a] * light
             indirect[p, a] += thi[i, a] * (W[i, 3] if level == 0 else W[i, a]) * light
+            outgoing_spec[p, a] += ths[i, a] * (W[i, 4 + a] if level == 0 else W[i, a]) * light
 
 
 def trace(rf) -> dict:
     """The GI pass over the frame's G-buffer (one compiled call): radiance, and rt_indirect (the
     incoming indirect radiance, albedo x which is the outgoing) when asked."""
     out, indirect_image = rf.frame_outputs(name="rt_indirect")
+    spec = rf.specular_image()
     p = GIPass.parameters(rf.options)
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        gi_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, indirect_image),
+        gi_frame, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, indirect_image, spec),
         rf.key_base(GIPass.stream), p["rays"], p["bounces"], p["shadows"], rf.ggx)
-    return rf.outputs(out, rt_indirect=indirect_image)
+    return rf.outputs(out, spec, rt_indirect=indirect_image)

@@ -37,10 +37,10 @@ class FrameArgsType(types.StructRef):
 
 
 class FrameArgs(structref.StructRefProxy):
-    def __new__(cls, points, pix, view_dir, surface, env, env_dist, target, out, aux):
+    def __new__(cls, points, pix, view_dir, surface, env, env_dist, target, out, aux, spec):
         """surface: the covered pixels' G-buffer, as Surface.arrays (p, n, ng, albedo,
         roughness, metallic, emissive): the fields of the same names."""
-        return _frame_args(points, pix, view_dir, surface, env, env_dist, target, out, aux)
+        return _frame_args(points, pix, view_dir, surface, env, env_dist, target, out, aux, spec)
 
 
 structref.define_proxy(FrameArgs, FrameArgsType, [
@@ -53,6 +53,7 @@ structref.define_proxy(FrameArgs, FrameArgsType, [
     "target",  # the tracing target (rtcore.target)
     "out",  # (N, 3) radiance, every pixel
     "aux",  # (N, C) the pass's other image, or (0, C): not asked for
+    "spec",  # (N, 3) the first hit's specular radiance (rt_specular, glTF's BRDF), or (0, 3): not asked for
 ])
 
 
@@ -64,7 +65,7 @@ def _scene_args(mesh, lights, far):
 
 
 @njit(cache=True)
-def _frame_args(points, pix, view_dir, surface, env, env_dist, target, out, aux):
+def _frame_args(points, pix, view_dir, surface, env, env_dist, target, out, aux, spec):
     p, n, ng, albedo, roughness, metallic, emissive = surface
     return FrameArgs(points, pix, view_dir, p, n, ng, albedo, roughness, metallic, emissive, env, env_dist, target,
-                     out, aux)
+                     out, aux, spec)

@@ -63,7 +63,7 @@ def _finish(frame, scene, b0, b1, keys, irradiance, grey, ggx):
     metal = np.zeros_like(metallic) if grey else metallic
     traced = env_light.env_shadow_rays(frame.points, b0, keys, env_light.env_dim(scene.lights[3]), frame.env,
                                        frame.env_dist, scene.far, frame.target, irradiance, base, metal)
-    gather.write_lit(frame.out, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, grey)
+    gather.write_lit(frame.out, frame.spec, pix[b0:b1], frame.emissive[b0:b1], albedo, metallic, irradiance, grey)
     gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
     return traced
 
@@ -72,9 +72,10 @@ def trace(rf) -> dict:
     """The shadows pass over the frame's G-buffer (one compiled call): radiance, and rt_direct
     (irradiance x cos; with GGX the direct radiance) when asked."""
     out, direct = rf.frame_outputs(name="rt_direct")
+    spec = rf.specular_image()
     p = ShadowsPass.parameters(rf.options)
     kernel = shadows_one if p["one"] else shadows_all
     rf.tracer.rays_traced += rf.tracer.run_parallel(
-        kernel, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, direct), rf.key_base(ShadowsPass.stream),
-        p["greyscale"], rf.ggx)
-    return rf.outputs(out, rt_direct=direct)
+        kernel, len(rf.gb.index), rf.data.kernel_scene, rf.kernel_frame(out, direct, spec),
+        rf.key_base(ShadowsPass.stream), p["greyscale"], rf.ggx)
+    return rf.outputs(out, spec, rt_direct=direct)

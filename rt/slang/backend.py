@@ -13,6 +13,7 @@ from rt.backend import Backend, FrameInputs
 from rt.effects import AUX_CHANNEL, AUX_CHANNELS, PASSES, PLUGINS, STREAM
 from rt.effects import EFFECTS as ALL_EFFECTS
 from rt.environment import env_args, env_distribution
+from rt.pass_base import SPECULAR
 from rt.slang.device import SHADER_DIR, open_device
 from rt.slang.flights import COUNTER_WORDS, Flights
 from rt.slang.images import Image, Rgba8
@@ -311,6 +312,8 @@ class SlangBackend(Backend):
         aux_name = AUX_CHANNEL.get(effect, "unused")
         out = self._buffer("radiance", w * h * 3, 4)
         aux = self._buffer(aux_name, w * h * aux_channels, 4)
+        splits = SPECULAR in PASSES[effect].writes  # its shader has g_spec (rt_specular)
+        spec = self._buffer(SPECULAR, w * h * 3 if splits else 1, 4)
         pipeline = self._pipeline(effect, file, raygen, MISSES, "closest")
         values = self._options(effect, inputs.options)
 
@@ -322,6 +325,8 @@ class SlangBackend(Backend):
                 self.scene.bind_lights(c["g_lights"])
                 c["g_far"] = float(self.scene.arrays.far)
             c["g_out"], c["g_aux"], c["g_rays_traced"] = out, aux, self._counter
+            if splits:
+                c["g_spec"] = spec
             c["g_width"] = w
 
         def bind(c):
@@ -330,14 +335,17 @@ class SlangBackend(Backend):
             self._environment(c["g_env"])
             c["g_base"] = np.array(_key_words(key_base(inputs.seed, inputs.index, stream)), np.uint32)
             c["g_write_aux"] = int(aux_name in channels)
+            if splits:
+                c["g_write_spec"] = int(SPECULAR in channels)
             for name, value in values.items():
                 c[name] = value
 
         flight = self._flights.current
         flight.counted = True  # the counter is read once the frame is done (end_frame)
-        flight.timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(out, aux),
+        flight.timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(out, aux, spec),
                                                   flight.slot)
-        images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels)}
+        images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels),
+                  SPECULAR: Image(spec, w * h, 3)}
         return {c: images[c] for c in channels}
 
     def _bind_log(self, cursor) -> None:
@@ -375,11 +383,11 @@ class SlangBackend(Backend):
         return count, ms, logged <= capacity
 
     @_device_errors
-    def svgf(self, radiance: Image, run) -> Image:
+    def svgf(self, radiance: Image, run, specular: Image | None = None) -> Image:
         """SVGF on the device (rt/slang/svgf.py), recorded with the frame's other work."""
         if self._svgf is None:
             self._svgf = DeviceSvgf(self)
-        return self._svgf.run(radiance, run)
+        return self._svgf.run(radiance, run, specular)
 
     def on_device(self, denoiser: str) -> bool:
         if denoiser != "oidn":

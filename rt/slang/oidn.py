@@ -137,7 +137,8 @@ class DeviceOidn:
         images = {name: self._image(name, 12 * n) for name in IMAGES}
         bufs = {name: images[name][0] for name in IMAGES}
         common = {"g_gbuffer": b.gbuffer, "g_shown": shown.buffer, "g_width": w, "g_height": h,
-                  "g_has_albedo": int(run.has_albedo), "g_has_emission": int(run.has_emission)}
+                  "g_has_albedo": int(run.has_albedo), "g_has_emission": int(run.has_emission),
+                  "g_ggx": int(run.ggx)}
         self._kernels["oidn_inputs"].dispatch(b._encoding(), w, h, {
             **common, "g_color": bufs["color"], "g_albedo": bufs["albedo"], "g_normal": bufs["normal"]})
         f = self._in_context(lambda: self._filter_for(run, w, h, images))

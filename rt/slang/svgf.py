@@ -40,58 +40,78 @@ class DeviceSvgf:
         inputs = self.backend.inputs
         self._kernels[key].dispatch(self.backend._encoding(), inputs.width, inputs.height, values)
 
-    def run(self, radiance, run):
-        """radiance filtered as run (rt/svgf.py's SvgfFrame) says; the result's device image."""
+    def run(self, radiance, run, specular=None):
+        """radiance filtered as run (rt/svgf.py's SvgfFrame) says; with run.split and the
+        radiance's specular part (specular: its device image), the diffuse and the specular
+        parts each in a run of their own; the result's device image."""
         b = self.backend
         inputs = b.inputs
-        w, h = inputs.width, inputs.height
-        n = w * h
-
-        def buf(name: str):
-            return b._buffer(f"svgf.{name}", n, 16)
-
-        temporal, moments, motion = buf("temporal"), buf("moments"), buf("motion")
-        kept = {"g_prev_color": buf("history.color"), "g_prev_moments": buf("history.moments"),
-                "g_prev_position": buf("history.position"), "g_prev_normal": buf("history.normal")}
+        n = inputs.width * inputs.height
+        split = bool(run.split) and specular is not None
         result = b._buffer("svgf.result", 3 * n, 4)
-        common = {"g_gbuffer": b.gbuffer, "g_width": w, "g_height": h, "g_radiance": radiance.buffer,
-                  "g_result": result, "g_has_albedo": int(run.has_albedo), "g_has_emission": int(run.has_emission)}
-        opts, history, resolved = run.opts, run.history, run.resolved
+        common = {"g_gbuffer": b.gbuffer, "g_width": inputs.width, "g_height": inputs.height,
+                  "g_radiance": radiance.buffer, "g_result": result, "g_has_albedo": int(run.has_albedo),
+                  "g_has_emission": int(run.has_emission), "g_split": int(split),
+                  "g_spec": specular.buffer if split else result, "g_diffuse": b._buffer("svgf.out", n, 16)}
         flight = b._flights.current
         timer = self.timers[flight.slot]
         timer.reset()
         encoder = b._encoding()
         encoder.write_timestamp(timer, 0)
+        out = self._filter(run, common, "svgf", 0)
+        if split:
+            out = self._filter(run, common, "svgf.spec", 1)
+        if run.opts.resolve:
+            mine, before = self._buf(f"resolved.{self.flip}"), self._buf(f"resolved.{self.flip ^ 1}")
+            self._dispatch("svgf_resolve", 0, {**common, "g_color": out, "g_prev_color": before,
+                                               "g_motion": self._buf("motion"), "g_out": mine,
+                                               "g_has_history": int(run.resolved),
+                                               "g_alpha": float(run.opts.resolve_alpha)})
+            self.flip ^= 1
+        encoder.write_timestamp(timer, 1)
+        flight.timers["svgf"] = functools.partial(elapsed, timer)
+        return Image(result, n, 3)
+
+    def _buf(self, name: str):
+        inputs = self.backend.inputs
+        return self.backend._buffer(f"svgf.{name}", inputs.width * inputs.height, 16)
+
+    def _filter(self, run, common: dict, prefix: str, signal: int):
+        """One run over the lighting (signal 0: the diffuse part, or the whole where not split;
+        1: the specular part, whose last iteration adds the diffuse run's g_diffuse), in buffers
+        of its own (prefix); its last iteration's image (also written into g_result)."""
+        b, inputs = self.backend, self.backend.inputs
+
+        def buf(name: str):
+            return b._buffer(f"{prefix}.{name}", inputs.width * inputs.height, 16)
+
+        common = {**common, "g_signal": signal}
+        temporal, moments, motion = buf("temporal"), buf("moments"), self._buf("motion")
+        kept = {"g_prev_color": buf("history.color"), "g_prev_moments": buf("history.moments"),
+                "g_prev_position": buf("history.position"), "g_prev_normal": buf("history.normal")}
+        opts, copy = run.opts, 100 * signal  # each dispatch of a frame has its own root object
         cur, prev = view_rows(inputs, inputs.camera), view_rows(inputs, inputs.prev_camera)
-        self._dispatch("svgf_temporal", 0, {
+        self._dispatch("svgf_temporal", copy, {
             **common, **kept, "g_motion": motion, "g_out": temporal, "g_out_moments": moments,
             "g_cur_x": cur[0], "g_cur_y": cur[1], "g_cur_w": cur[2], "g_prev_x": prev[0], "g_prev_y": prev[1],
-            "g_prev_w": prev[2], "g_has_history": int(history), "g_alpha": float(opts.alpha),
+            "g_prev_w": prev[2], "g_has_history": int(run.history), "g_alpha": float(opts.alpha),
             "g_moments_alpha": float(opts.moments_alpha)})
         variance = buf("variance")
-        self._dispatch("svgf_variance", 0, {**common, "g_color": temporal, "g_moments": moments, "g_out": variance,
-                                            "g_phi_normal": float(opts.phi_normal), "g_alpha": float(opts.alpha),
-                                            "g_of_average": int(not opts.feedback)})
+        self._dispatch("svgf_variance", copy, {**common, "g_color": temporal, "g_moments": moments,
+                                               "g_out": variance, "g_phi_normal": float(opts.phi_normal),
+                                               "g_alpha": float(opts.alpha), "g_of_average": int(not opts.feedback)})
         source, out = variance, buf("out")
         iterations = run.iterations
         for i in range(iterations):
             last = i == iterations - 1
             target = out if last else buf("ping" if i % 2 == 0 else "pong")
-            self._dispatch("svgf_atrous", i, {
+            self._dispatch("svgf_atrous", copy + i, {
                 **common, "g_color": source, "g_moments": moments, "g_out": target, "g_step": 1 << i,
                 "g_phi_color": float(opts.phi_color), "g_phi_normal": float(opts.phi_normal),
                 "g_phi_depth": float(opts.phi_depth), "g_remodulate": int(last)})
             source = target
             if i == 0:  # what the next frame reprojects: the temporal average (or the first iteration's)
                 first = (variance if last else source) if opts.feedback else temporal
-                self._dispatch("svgf_history", 0, {**common, **kept, "g_out": first, "g_color": temporal,
-                                                   "g_moments": moments})
-        if opts.resolve:
-            mine, before = buf(f"resolved.{self.flip}"), buf(f"resolved.{self.flip ^ 1}")
-            self._dispatch("svgf_resolve", 0, {**common, "g_color": out, "g_prev_color": before, "g_motion": motion,
-                                               "g_out": mine, "g_has_history": int(resolved),
-                                               "g_alpha": float(opts.resolve_alpha)})
-            self.flip ^= 1
-        encoder.write_timestamp(timer, 1)
-        flight.timers["svgf"] = functools.partial(elapsed, timer)
-        return Image(result, n, 3)
+                self._dispatch("svgf_history", copy, {**common, **kept, "g_out": first, "g_color": temporal,
+                                                      "g_moments": moments})
+        return out
