@@ -112,13 +112,16 @@ def test_every_option_is_in_the_panel_of_some_mode():
 def test_each_effect_is_one_record_that_both_backends_read():
     """An effect's random stream, own image and parameters are declared once, on its pass
     (rt/effects.py): the streams differ (two effects drawing the same numbers would correlate
-    their noise), the aux channel is what the pass writes besides radiance, and both backends
-    trace exactly the effects declared, found by name (rt/embree/<effect>.py, shaders/rt/<effect>.slang)."""
+    their noise), the aux channel is what the pass writes besides radiance (and its specular
+    part, rt_specular, for the denoisers), and both backends trace exactly the effects declared,
+    found by name (rt/embree/<effect>.py, shaders/rt/<effect>.slang)."""
     from rt.effects import AUX_CHANNEL, EFFECTS, PASSES, STREAM
+    from rt.pass_base import SPECULAR
     from rt.embree.backend import traces
     from rt.slang.backend import EFFECTS as DEVICE_EFFECTS
 
     assert len(set(STREAM.values())) == len(EFFECTS) and 0 not in STREAM.values()
     for name, p in PASSES.items():
-        assert p.name == name and set(p.writes) == {"radiance"} | ({AUX_CHANNEL[name]} if name in AUX_CHANNEL else set())
+        aux = {AUX_CHANNEL[name]} if name in AUX_CHANNEL else set()
+        assert p.name == name and set(p.writes) - {SPECULAR} == {"radiance"} | aux
     assert set(traces()) == set(DEVICE_EFFECTS) == set(EFFECTS)

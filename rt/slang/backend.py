@@ -342,8 +342,8 @@ class SlangBackend(Backend):
 
         flight = self._flights.current
         flight.counted = True  # the counter is read once the frame is done (end_frame)
-        flight.timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static, self._static_key(out, aux, spec),
-                                                  flight.slot)
+        flight.timers[effect] = pipeline.dispatch(self._encoding(), w, h, bind, static,
+                                                  self._static_key(out, aux, spec), flight.slot)
         images = {"radiance": Image(out, w * h, 3), aux_name: Image(aux, w * h, aux_channels),
                   SPECULAR: Image(spec, w * h, 3)}
         return {c: images[c] for c in channels}

@@ -3,11 +3,12 @@ dispatches' timestamps, read once the device has done that frame, while the host
 next one (end(lag=1)) or at once (lag=0, a frame the host needs finished, e.g. to show it).
 
 The device's ray counter (a running sum spread over COUNTER_WORDS words, which the host adds up:
-shaders/rt/common.slang count_rays) is copied into host memory after each frame's work, into one of two slots, so that the copy of frame N+1 does not overwrite frame
-N's before it is read. On Vulkan the copy is recorded with the frame's work; on CUDA slang-rhi
-runs a recorded copy into host memory as a synchronous cuMemcpy at submission, which would make
-the host wait for the frame there, so the copy is CUDA's asynchronous one, followed by an event
-that the reading waits on (_CudaCounter)."""
+shaders/rt/common.slang count_rays) is copied into host memory after each frame's work, into one
+of two slots, so that the copy of frame N+1 does not overwrite frame N's before it is read. On
+Vulkan the copy is recorded with the frame's work; on CUDA slang-rhi runs a recorded copy into
+host memory as a synchronous cuMemcpy at submission, which would make the host wait for the frame
+there, so the copy is CUDA's asynchronous one, followed by an event that the reading waits on
+(_CudaCounter)."""
 from __future__ import annotations
 
 import ctypes
