@@ -125,3 +125,19 @@ def test_view_compare_option_is_checked(display):
         r = subprocess.run([sys.executable, "-m", "app.cli", "view", "arcade", *args, "--exit-after", "1"],
                            capture_output=True, text=True, timeout=300)
         assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
+
+
+def test_viewer_fps_runs_the_viewer_offscreen_without_a_display(tmp_path):
+    """scripts/viewer_fps.py without $DISPLAY (as on the lent GPU machine): the viewer's own frame
+    loop in an EGL context, its panel drawn, frames rendered and a rate printed."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    env.update(N="12", PYTHONPATH=os.getcwd())
+    r = subprocess.run([sys.executable, "scripts/viewer_fps.py", "cafe", "--pass", "forward", "--size", "96x54"],
+                       capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr
+    line = r.stdout.strip().splitlines()[-1]
+    assert line.startswith("viewer (offscreen) cafe") and "frames rendered/s" in line, r.stdout
+    rendered = float(line.split("loop iterations/s, ")[1].split(" frames rendered/s")[0])
+    assert rendered > 0, line
