@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from core.options import opt, register_group
-from rt.pass_base import RtPass
+from rt.pass_base import SPECULAR, RtPass
 
 
 @dataclass
@@ -25,7 +25,7 @@ register_group("reflections", ReflectionsOptions)
 class ReflectionsPass(RtPass):
     name = "reflections"
     options = ReflectionsOptions
-    writes = ("radiance", "rt_reflection")
+    writes = ("radiance", "rt_reflection", SPECULAR)
     stream = 3
     aux_channels = 4
 
@@ -33,3 +33,8 @@ class ReflectionsPass(RtPass):
     def parameters(cls, opts) -> dict:
         return {"threshold": opts.get("reflections.roughness_threshold"), "depth": opts.get("reflections.max_depth"),
                 "lit": opts.get("reflections.lit"), "glossy": opts.get("reflections.glossy")}
+
+    @classmethod
+    def splits_specular(cls, opts, scene) -> bool:
+        """Lit colours only: unlit ones (the study's) are the albedo blended by Fresnel."""
+        return super().splits_specular(opts, scene) and bool(opts.get("reflections.lit"))

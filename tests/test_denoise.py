@@ -357,14 +357,14 @@ def test_svgf_filters_the_specular_part_apart_from_the_textured_diffuse(gl, tmp_
 
 
 def test_the_specular_part_is_the_same_on_both_backends_and_none_under_lambert(gl, tmp_path, vulkan):
-    """rt_specular of shadows and GI on the glossy checker: Embree's and the device's agree to
-    float rounding, lie between 0 and the radiance, and are zero with brdf=lambert (where the
-    passes do not even write it: no denoiser asks)."""
+    """rt_specular of shadows, GI and reflections on the glossy checker: Embree's and the device's
+    agree to float rounding and are not negative; with brdf=lambert the passes do not write it
+    (nothing to split)."""
     scene = _checker(tmp_path)
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     found = {}
     for tracer in ("embree", "vulkan"):
-        for mode in ("gi", "shadows"):
+        for mode in ("gi", "shadows", "reflections"):
             for brdf in ("ggx", "lambert"):
                 r = make(gl, scene, (f"tracer={tracer}", f"brdf={brdf}", "gi.rays_per_pixel=1"))
                 r.pass_outputs = True
@@ -372,7 +372,7 @@ def test_the_specular_part_is_the_same_on_both_backends_and_none_under_lambert(g
                 spec = r.frame.channels.get("rt_specular")
                 found[tracer, mode, brdf] = None if spec is None else np.asarray(r.rt.to_host(spec)).reshape(-1, 3)
                 r.release()
-    for mode in ("gi", "shadows"):
+    for mode in ("gi", "shadows", "reflections"):
         embree, device = found["embree", mode, "ggx"], found["vulkan", mode, "ggx"]
         assert embree.max() > 0.05 and embree.min() >= 0.0, mode
         assert np.abs(embree - device).max() < 2e-3 * embree.max(), mode

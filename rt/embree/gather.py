@@ -192,10 +192,11 @@ def add_hit_colour(out, sel, k, emissive, albedo, metallic, direct, lit):
 
 
 @njit(cache=True, error_model="numpy", nogil=True, fastmath=True)
-def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflection, ggx):
+def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflection, ggx, spec=None):
     """At the points sel[k]: colour = emission + (1 - F) (colour - emission) + F x inner, with
     Schlick's F for view directions V (ggx: colour += F x inner, the colour's light having its
-    own Fresnel split, rt/embree/brdf.py); reflection[sel[k]] = (inner, 1) when given."""
+    own Fresnel split, rt/embree/brdf.py, and spec += F x inner where spec is given: the
+    specular part); reflection[sel[k]] = (inner, 1) when given."""
     for k in range(sel.shape[0]):
         i = sel[k]
         for a in range(3):
@@ -203,6 +204,8 @@ def blend_mirror(colour, sel, emissive, albedo, metallic, N, V, inner, reflectio
             e = emissive[i, a]
             if ggx:
                 colour[i, a] += f * inner[k, a]
+                if spec is not None:
+                    spec[i, a] += f * inner[k, a]
             else:
                 colour[i, a] = e + (np.float32(1.0) - f) * (colour[i, a] - e) + f * inner[k, a]
         if reflection is not None:

@@ -132,11 +132,12 @@ def _deeper(scene, frame, depth, thr, lit, ggx, surf, d, hits, keys, colour):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
+def _glossy(scene, frame, pix, b0, nb, keys, thr, local, local_spec):
     """GGX's glossy reflection at the block's points at or above thr (brdf=ggx, lit colours):
     one ray per point from its lobe (visible normals, dimensions brdf.GLOSSY_DIM + 0, 1), its
     hit's lit colour (light dimensions 4..7) or the environment, added to local[j] with the
-    sample's weight F(v.m) G1(l) (rt/embree/brdf.py). Returns the rays traced."""
+    sample's weight F(v.m) G1(l) (rt/embree/brdf.py), and to local_spec (the specular part).
+    Returns the rays traced."""
     rows = np.empty(nb, np.int64)
     m = 0
     for j in range(nb):
@@ -159,6 +160,7 @@ def _glossy(scene, frame, pix, b0, nb, keys, thr, local):
     for k in range(m):
         for a in range(3):
             local[rows[k], a] += weight[k, a] * refl[k, a]
+            local_spec[rows[k], a] += weight[k, a] * refl[k, a]
     return traced
 
 
@@ -179,8 +181,8 @@ def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx,
         if b0 >= pix.shape[0]:
             return traced
         keys = blocks.block_keys(pix, b0, b1, base)
-        local = np.empty((b1 - b0, 3), np.float32)
-        traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy and ggx, local)
+        local, local_spec = np.empty((b1 - b0, 3), np.float32), np.zeros((b1 - b0, 3), np.float32)
+        traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy and ggx, local, local_spec)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
         refl = np.zeros((near.shape[0], 3), np.float32)
         hits, d, surf, colour, hkeys, t = _mirror_hits(scene, frame, (frame.p, frame.n, frame.ng), V, smooth, skeys,
@@ -188,10 +190,10 @@ def reflections_frame(counter, bounds, scene, frame, base, thr, lit, depth, ggx,
         traced += t
         if depth > 1:
             traced += _deeper(scene, frame, depth, thr, lit, ggx, surf, d, hits, hkeys, colour)
-        reflection = _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx)
+        reflection = _blend(frame, b0, b1, (local, local_spec), near, V, refl, hits, colour, lit, ggx)
         if glossy and ggx and lit:
-            traced += _glossy(scene, frame, pix, b0, b1 - b0, keys, thr, local)
-        _write(frame, b0, b1, local, reflection)
+            traced += _glossy(scene, frame, pix, b0, b1 - b0, keys, thr, local, local_spec)
+        _write(frame, b0, b1, local, local_spec, reflection)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -205,21 +207,23 @@ def reflections_one(counter, bounds, scene, frame, base, thr, lit, ggx):
         if b0 >= pix.shape[0]:
             return traced
         keys = blocks.block_keys(pix, b0, b1, base)
-        local = np.empty((b1 - b0, 3), np.float32)
-        traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, False, local)
+        local, local_spec = np.empty((b1 - b0, 3), np.float32), np.zeros((b1 - b0, 3), np.float32)
+        traced += _local(scene, frame, b0, b1, keys, lit, ggx, thr, False, local, local_spec)
         smooth, near, V, skeys = _smooth_points(frame, b0, b1, keys, thr)
         refl = np.zeros((near.shape[0], 3), np.float32)
         hits, _, _, colour, _, t = _mirror_hits(scene, frame, (frame.p, frame.n, frame.ng), V, smooth, skeys, 4, lit,
                                                 ggx, np.float32(0.0), refl)
         traced += t
-        _write(frame, b0, b1, local, _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx))
+        reflection = _blend(frame, b0, b1, (local, local_spec), near, V, refl, hits, colour, lit, ggx)
+        _write(frame, b0, b1, local, local_spec, reflection)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local):
+def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local, local_spec):
     """The local colour of points b0..b1 into local (lit: one chosen light, shadowed, and the
     environment's sample, on the diffuse lobe alone where a mirror ray (smoother than thr) or a
-    glossy ray brings the specular one; else the albedo, as the study); returns the rays traced."""
+    glossy ray brings the specular one; else the albedo, as the study), and with ggx its
+    specular part into local_spec (brdf.specular_out); returns the rays traced."""
     albedo = frame.albedo[b0:b1]
     if not lit:
         for j in range(b1 - b0):  # a loop: an array assigned to a slice compiles its shape check for seconds
@@ -236,6 +240,8 @@ def _local(scene, frame, b0, b1, keys, lit, ggx, thr, glossy, local):
     for j in range(b1 - b0):
         for a in range(3):
             local[j, a] = brdf.light_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
+            if ggx:
+                local_spec[j, a] = brdf.specular_out(acc, j, a, albedo[j, a], frame.metallic[b0 + j])
     return traced
 
 
@@ -259,27 +265,30 @@ def _smooth_points(frame, b0, b1, keys, thr):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _blend(frame, b0, b1, local, near, V, refl, hits, colour, lit, ggx):
+def _blend(frame, b0, b1, colours, near, V, refl, hits, colour, lit, ggx):
     """Fresnel's blend of the mirrors' colours (refl: the environment where a ray missed, the hits'
-    colours put in here) into local (ggx and lit: glTF's BRDF, brdf.py, whose direct light has its
-    own Fresnel split: the reflection is added, F x it); returns the reflection (RGBA)."""
+    colours put in here) into local (colours: local and its specular part; ggx and lit: glTF's
+    BRDF, brdf.py, whose direct light has its own Fresnel split: the reflection is added, F x it,
+    to both); returns the reflection (RGBA)."""
+    local, local_spec = colours
     for i in range(hits.shape[0]):
         for a in range(3):
             refl[hits[i], a] = colour[i, a]
     nb = b1 - b0
     reflection = np.zeros((nb, 4), np.float32)
     gather.blend_mirror(local, near, np.zeros((nb, 3), np.float32), frame.albedo[b0:b1], frame.metallic[b0:b1],
-                        frame.n[b0:b1], V, refl, reflection, ggx and lit)
+                        frame.n[b0:b1], V, refl, reflection, ggx and lit, local_spec)
     return reflection
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _write(frame, b0, b1, local, reflection):
-    """The block's pixels (local colour plus emission), its reflection into frame.aux, and the
-    uncovered pixels around it."""
+def _write(frame, b0, b1, local, local_spec, reflection):
+    """The block's pixels (local colour plus emission), its specular part into frame.spec (where
+    asked), its reflection into frame.aux, and the uncovered pixels around it."""
     pix = frame.pix
     local += frame.emissive[b0:b1]
     gather.put_rows(frame.out, pix[b0:b1], local)
+    gather.put_rows(frame.spec, pix[b0:b1], local_spec)
     gather.put_rows(frame.aux, pix[b0:b1], reflection)
     gather.fill_uncovered(frame.out, frame.aux, np.float32(0.0), pix, b0, b1, frame.view_dir, frame.env)
 
@@ -288,12 +297,13 @@ def trace(rf) -> dict:
     """The reflections pass over the frame's G-buffer (one compiled call): radiance, and
     rt_reflection (RGBA, alpha 1 where a mirror ray was traced) when asked."""
     out, reflection_image = rf.frame_outputs(4, name="rt_reflection")
+    spec = rf.specular_image()
     p = ReflectionsPass.parameters(rf.options)
-    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image), rf.key_base(ReflectionsPass.stream),
+    args = (rf.data.kernel_scene, rf.kernel_frame(out, reflection_image, spec), rf.key_base(ReflectionsPass.stream),
             np.float32(p["threshold"]), p["lit"])
     if p["depth"] > 1 or p["glossy"]:
         kernel, args = reflections_frame, (*args, p["depth"], rf.ggx, p["glossy"])
     else:
         kernel, args = reflections_one, (*args, rf.ggx)
     rf.tracer.rays_traced += rf.tracer.run_parallel(kernel, len(rf.gb.index), *args)
-    return rf.outputs(out, rt_reflection=reflection_image)
+    return rf.outputs(out, spec, rt_reflection=reflection_image)
