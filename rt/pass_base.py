@@ -51,9 +51,9 @@ class RtPass(Pass):
                 and cls.radiance_terms(opts)[0])
 
     def execute(self, frame) -> None:
-        # its specular part only where it comes apart this frame (the denoisers read it if there)
-        wanted = tuple(c for c in self.writes if c in frame.wanted
-                       and (c != SPECULAR or self.splits_specular(frame.options, frame.scene)))
+        # its specular part only where it is the frame's image and comes apart (SVGF reads it if there)
+        split = frame.mode == self.name and self.splits_specular(frame.options, frame.scene)
+        wanted = tuple(c for c in self.writes if c in frame.wanted and (c != SPECULAR or split))
         with frame.profiler.cpu(self.name):
             frame.channels.update(frame.backend.trace(self.name, wanted))
 
