@@ -30,7 +30,7 @@ split)
   # the glossy checker of tests/test_denoise.py (glTF's BRDF: the specular part filtered apart, or not)
   python3 -c "import json; from tests.gltf_writer import checker_glossy_document as d
 open('/tmp/checker.gltf', 'w').write(json.dumps(d()))"
-  for round in 1 2; do
+  for round in $(seq 1 "${ROUNDS:-2}"); do
     for t in ${TRACERS:-cuda vulkan}; do
       for split in true false; do
         python3 -m app.cli bench --scenes /tmp/checker.gltf --configs gi_1+svgf --size "${SIZE:-1920x1080}" --no-quality \
