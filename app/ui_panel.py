@@ -86,6 +86,15 @@ class Panel:
         self.camera_json = "cameras.json"
         self.error = ""
         self.message = ""
+        self._stats = (None, None)  # (scene, its stats): made once a scene, not every UI frame
+
+    def scene_stats(self) -> dict:
+        """The scene's statistics (Scene.stats: its emitting triangles are found over every
+        triangle, 1.5 ms a UI frame on the arcade and O(triangles) on a big file)."""
+        scene, stats = self._stats
+        if scene is not self.v.scene:
+            self._stats = (self.v.scene, self.v.scene.stats())
+        return self._stats[1]
 
     def draw(self, imgui) -> None:
         v = self.v
@@ -119,7 +128,7 @@ class Panel:
                 self._browse()
             imgui.same_line()
             imgui.text_disabled("(or drop a file on the window)")
-            st = v.scene.stats()
+            st = self.scene_stats()
             imgui.text(f"{st['triangles']:,} triangles, {st['lights']} lights, "
                        f"{st['emissive_triangles']:,} emissive")
             studio = st["environment"] == "studio" and v.options.get("env") == "scene"

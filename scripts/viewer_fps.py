@@ -64,6 +64,9 @@ class _OffscreenGlfw(types.ModuleType):
     def get_mouse_button(self, window, button):
         return 0
 
+    def get_current_context(self):  # no GLFW context: GL's functions are looked up through EGL
+        return None
+
     def _nothing(self, *args):
         return None
 
