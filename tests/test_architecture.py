@@ -116,8 +116,8 @@ def test_each_effect_is_one_record_that_both_backends_read():
     part, rt_specular, for the denoisers), and both backends trace exactly the effects declared,
     found by name (rt/embree/<effect>.py, shaders/rt/<effect>.slang)."""
     from rt.effects import AUX_CHANNEL, EFFECTS, PASSES, STREAM
-    from rt.pass_base import SPECULAR
     from rt.embree.backend import traces
+    from rt.pass_base import SPECULAR
     from rt.slang.backend import EFFECTS as DEVICE_EFFECTS
 
     assert len(set(STREAM.values())) == len(EFFECTS) and 0 not in STREAM.values()

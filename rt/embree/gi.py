@@ -70,10 +70,10 @@ def _paths(scene, frame, lit, b0, keys, r, rays, bounces, ggx, indirect, outgoin
     incoming indirect light); with ggx, times the BRDF weights of the path's points, into
     outgoing (the indirect light leaving), and into indirect with the primary point's
     cosine-lobe weight in place of its BRDF's, and into outgoing_spec with the primary point's
-    specular lobe's weight in place of its BRDF's (rt_specular). Random dimensions: 6 per bounce from 4 + 6 x
-    (bounces x r), 3 a bounce for the hits' environment samples from 4 + 6 x bounces x rays +
-    3 x (bounces x r), and with ggx 1 a bounce for the lobe from 4 + 9 x bounces x rays +
-    bounces x r. Returns the rays traced."""
+    specular lobe's weight in place of its BRDF's (rt_specular). Random dimensions: 6 per bounce
+    from 4 + 6 x (bounces x r), 3 a bounce for the hits' environment samples from 4 + 6 x bounces
+    x rays + 3 x (bounces x r), and with ggx 1 a bounce for the lobe from 4 + 9 x bounces x rays
+    + bounces x r. Returns the rays traced."""
     nb = keys.shape[0]
     env_kind, env_color, horizon, zenith, ground, texels = frame.env
     o, d, t, owner = (np.empty((nb, 3), np.float32), np.empty((nb, 3), np.float32), np.empty(nb, np.float32),
