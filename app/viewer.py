@@ -50,6 +50,10 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+UI_HZ = 240  # the UI loop's ceiling (Viewer.run)
+SWITCH_INTERVAL = 0.0005  # s: how often the interpreter hands the GIL on while the viewer runs
+
+
 class Viewer:
     def __init__(self, args):
         import glfw
@@ -391,22 +395,34 @@ class Viewer:
             self.frame(0.0, start_new=False)
 
     def run(self, exit_after: int = 0, screenshot: str | None = None) -> int:
+        """The UI loop, at most UI_HZ iterations a second. A GPU backend's frames are made by the
+        tracing worker's Python (recording and submitting the device's work), which needs the GIL
+        that the UI loop's Python holds: the loop sleeps out the rest of its 1/UI_HZ s, and the
+        interpreter hands the GIL over every 0.5 ms instead of 5 while the viewer runs."""
         glfw = self.glfw
         last = time.perf_counter()
         frames = 0
-        while not glfw.window_should_close(self.window):
-            glfw.poll_events()
-            now = time.perf_counter()
-            dt, last = now - last, now
-            self.frame(min(dt, 0.25))
-            self.frame_times.append(dt * 1e3)
-            frames += 1
-            if exit_after and frames >= exit_after:
-                self.wait_for_frame()
-                if screenshot:
-                    self.screenshot(screenshot)
-                break
-            glfw.swap_buffers(self.window)
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(SWITCH_INTERVAL)
+        try:
+            while not glfw.window_should_close(self.window):
+                glfw.poll_events()
+                now = time.perf_counter()
+                dt, last = now - last, now
+                self.frame(min(dt, 0.25))
+                self.frame_times.append(dt * 1e3)
+                frames += 1
+                if exit_after and frames >= exit_after:
+                    self.wait_for_frame()
+                    if screenshot:
+                        self.screenshot(screenshot)
+                    break
+                glfw.swap_buffers(self.window)
+                spare = 1.0 / UI_HZ - (time.perf_counter() - now)
+                if spare > 0:
+                    time.sleep(spare)  # the GIL is the worker's meanwhile
+        finally:
+            sys.setswitchinterval(switch)
         return 0
 
     def close(self) -> None:
