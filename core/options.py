@@ -85,10 +85,8 @@ class Options:
         return obj, fields[name]
 
     def keys(self) -> list[str]:
-        out = []
-        for group, obj in self.groups.items():
-            out += [f"{group}.{f.name}" if group else f.name for f in dataclasses.fields(obj)]
-        return out
+        return [f"{group}.{name}" if group else name for group, obj in self.groups.items()
+                for name in _fields_of(type(obj))]
 
     def get(self, key: str):
         obj, f = self._field(key)
