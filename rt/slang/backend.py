@@ -313,7 +313,7 @@ class SlangBackend(Backend):
         out = self._buffer("radiance", w * h * 3, 4)
         aux = self._buffer(aux_name, w * h * aux_channels, 4)
         splits = SPECULAR in PASSES[effect].writes  # its shader has g_spec (rt_specular)
-        spec = self._buffer(SPECULAR, w * h * 3 if splits else 1, 4)
+        spec = self._buffer(SPECULAR, w * h * 3 if SPECULAR in channels else 1, 4)  # the image only when asked
         pipeline = self._pipeline(effect, file, raygen, MISSES, "closest")
         values = self._options(effect, inputs.options)
 
