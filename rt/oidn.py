@@ -49,9 +49,8 @@ def specular_albedo(base: np.ndarray, metallic: np.ndarray, roughness: np.ndarra
     return (f0 * scale[..., None] + bias[..., None]).astype(np.float32)
 
 
-def oidn_albedo(base: np.ndarray, metallic, roughness, nv, ggx: bool) -> np.ndarray:
-    """OIDN's albedo image: the base colour, or with glTF's BRDF the diffuse albedo plus the
-    specular one (OIDN's advice for glossy surfaces), clamped to [0, 1] (shaders/rt/oidn.slang)."""
-    if ggx:
-        base = base * (1.0 - metallic[..., None]) + specular_albedo(base, metallic, roughness, nv)
+def glossy_albedo(base: np.ndarray, metallic, roughness, nv) -> np.ndarray:
+    """OIDN's albedo image under glTF's BRDF: the diffuse albedo plus the specular one (OIDN's
+    advice for glossy surfaces), clamped to [0, 1] (shaders/rt/oidn.slang)."""
+    base = base * (1.0 - metallic[..., None]) + specular_albedo(base, metallic, roughness, nv)
     return np.clip(base, 0.0, 1.0)

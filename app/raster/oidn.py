@@ -10,7 +10,7 @@ import numpy as np
 
 from core.errors import UserError
 from core.passes import Pass
-from rt.oidn import OidnOptions, oidn_albedo, oidn_frame
+from rt.oidn import OidnOptions, glossy_albedo, oidn_frame
 
 
 def _read(tex) -> np.ndarray:
@@ -47,13 +47,15 @@ class OidnPass(Pass):
             emission = np.clip(_read(frame.channels["g_emissive"])[..., :3], 0.0, shown) * covered * run.has_emission
             color = np.ascontiguousarray(shown - emission)
             g_normal, g_albedo = _read(frame.channels["g_normal"]), _read(frame.channels["g_albedo"])
-            if run.has_albedo:
+            if not run.has_albedo:
+                albedo = 1.0
+            elif run.ggx:  # the view's cosine (from the positions, read back only here) for the specular albedo
                 to_eye = np.asarray(frame.camera.eye, np.float32) - _read(frame.channels["g_position"])[..., :3]
                 nv = np.clip(np.einsum("...i,...i", g_normal[..., :3], to_eye)
                              / np.maximum(np.linalg.norm(to_eye, axis=-1), 1e-12), 0.0, 1.0)
-                albedo = oidn_albedo(g_albedo[..., :3], g_albedo[..., 3], g_normal[..., 3], nv, run.ggx)
+                albedo = glossy_albedo(g_albedo[..., :3], g_albedo[..., 3], g_normal[..., 3], nv)
             else:
-                albedo = 1.0
+                albedo = np.clip(g_albedo[..., :3], 0.0, 1.0)
             albedo = np.ascontiguousarray(np.broadcast_to(albedo * covered, shown.shape), np.float32)
             normal = np.ascontiguousarray(g_normal[..., :3] * covered)
             out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=run.quality)

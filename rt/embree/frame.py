@@ -9,6 +9,7 @@ from rt.embree.gbuffer import CpuGBuffer
 from rt.embree.sampling import PixelRng
 from rt.embree.shading import SceneData
 from rt.embree.tracer import Tracer
+from rt.pass_base import SPECULAR
 
 
 def no_image(channels: int) -> np.ndarray:
@@ -90,8 +91,6 @@ class RtFrame:
     def outputs(self, radiance: np.ndarray, specular: np.ndarray | None = None, **aux) -> dict:
         """A pass's results: radiance, its other images (by name) when the frame makes them, and
         its specular part (specular_image) when asked."""
-        from rt.pass_base import SPECULAR
-
         found = {"radiance": radiance, **(aux if self.aux else {})}
         if self.specular and specular is not None:
             found[SPECULAR] = specular

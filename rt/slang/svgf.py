@@ -52,7 +52,7 @@ class DeviceSvgf:
         common = {"g_gbuffer": b.gbuffer, "g_width": inputs.width, "g_height": inputs.height,
                   "g_radiance": radiance.buffer, "g_result": result, "g_has_albedo": int(run.has_albedo),
                   "g_has_emission": int(run.has_emission), "g_split": int(split),
-                  "g_spec": specular.buffer if split else result, "g_diffuse": b._buffer("svgf.out", n, 16)}
+                  "g_spec": specular.buffer if split else result, "g_diffuse": self._buf("out")}
         flight = b._flights.current
         timer = self.timers[flight.slot]
         timer.reset()
