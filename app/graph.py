@@ -88,6 +88,18 @@ def gbuffer_source(options, tracer: str, software_gl: bool, mode: str) -> str:
     return "rt" if cheaper and not rasterised_anyway else "raster"
 
 
+def finish_on_tracer(options, tracer: str, software_gl: bool) -> bool:
+    """Option finish resolved for a frame traced by `tracer` (resolved) on an OpenGL that is
+    (software_gl) or is not a CPU rasteriser: whether the backend accumulates and tone-maps the
+    frame itself (Backend.present). auto: a GPU backend always (its images are on its device);
+    Embree where GL is software (at 1280x720 on llvmpipe GL's float upload, accumulation and tone
+    mapping took 15-17 ms, Embree's threads 2-3 ms and an 8-bit upload: report/HISTORY.md)."""
+    asked = options.get("finish")
+    if asked != "auto":
+        return asked == "tracer"
+    return tracer != "embree" or software_gl
+
+
 class Resolved:
     """Options with some keys' values given here instead (the graph's view of option gbuffer=auto)."""
 

@@ -32,6 +32,10 @@ class GlobalOptions:
                        "tracer) or auto (rt where Embree traces and OpenGL is a CPU rasteriser, which draws it slower "
                        "than rays find it, unless a denoiser or reproject rasterises one anyway; else raster)",
                        choices=("auto", "raster", "rt"))
+    finish: str = opt("auto", "where a ray-traced frame's accumulation and tone mapping run: tracer (on the ray "
+                      "tracer's device, so that only the 8-bit image goes to GL), gl (OpenGL's shaders) or auto (the "
+                      "GPU backends' device; Embree's threads where OpenGL is a CPU rasteriser, whose two full-screen "
+                      "passes and float upload cost more; else gl)", choices=("auto", "tracer", "gl"))
     exposure: float = opt(1.0, "exposure multiplier before tone mapping", 1e-6, 1e6)
     env: str = opt("scene", "radiance of rays that miss: scene (the file's; the studio for files with no "
                      "lights), black, sky, studio, R,G,B or an equirectangular map of linear radiance "

@@ -9,7 +9,7 @@ import numpy as np
 
 from app.camera import Camera, subpixel_jitter
 from app.frame import Frame
-from app.graph import Resolved, active, denoises, gbuffer_source
+from app.graph import Resolved, active, denoises, finish_on_tracer, gbuffer_source
 from app.options import Options
 from app.passes import check_pass, create_passes
 from app.profiler import Profiler
@@ -135,14 +135,26 @@ class Renderer:
             p.set_scene(scene)
             p.reset()
 
-    def gbuffer_source(self, pass_name: str) -> str:
-        """Option gbuffer resolved for this renderer's frames of pass_name (app/graph.py gbuffer_source)."""
+    def software_gl(self) -> bool:
+        """Whether this GL is a CPU rasteriser (asked once)."""
         from app.gl_context import software_gl
-        from rt.backends import resolve
 
         if self._software_gl is None:
             self._software_gl = software_gl(self.ctx)
-        return gbuffer_source(self.options, resolve(self.options.get("tracer")), self._software_gl, pass_name)
+        return self._software_gl
+
+    def finishes_on_tracer(self, backend=None) -> bool:
+        """Option finish resolved for this renderer's ray-traced frames (app/graph.py finish_on_tracer)."""
+        from rt.backends import resolve
+
+        name = backend.name if backend is not None else resolve(self.options.get("tracer"))
+        return finish_on_tracer(self.options, name, self.software_gl())
+
+    def gbuffer_source(self, pass_name: str) -> str:
+        """Option gbuffer resolved for this renderer's frames of pass_name (app/graph.py gbuffer_source)."""
+        from rt.backends import resolve
+
+        return gbuffer_source(self.options, resolve(self.options.get("tracer")), self.software_gl(), pass_name)
 
     def ray_tracing(self):
         """The scene's ray-tracing backend (option `tracer`), built on first use and again when
@@ -207,11 +219,13 @@ class Renderer:
             return None
 
     def _presents(self, backend, pass_name: str, names: list[str]) -> bool:
-        """Whether a device backend's own image ends this graph: after its traced passes only
-        the accumulation and the display, which it does on its device (Backend.present)."""
+        """Whether the backend's own image ends this graph: after its traced passes only the
+        accumulation and the display, which it does on its device (Backend.present) where option
+        finish puts them there (app/graph.py finish_on_tracer)."""
         traced = [i for i, n in enumerate(names) if self.passes[n].device == "rt"]
         return (backend is not None and hasattr(backend, "present") and pass_name not in CHANNEL_VIEWS
-                and bool(traced) and names[traced[-1] + 1:] == ["accumulation", "display"])
+                and bool(traced) and names[traced[-1] + 1:] == ["accumulation", "display"]
+                and self.finishes_on_tracer(backend))
 
     def _device_oidn(self, backend) -> bool:
         """Whether OIDN runs on the backend's GPU this frame (option oidn.device); where a GPU
@@ -523,7 +537,7 @@ class Renderer:
         acc = self.frame.channels["accumulated"]
         if self.frame.backend is not None and not hasattr(acc, "read"):  # the running mean on the device
             h, w = self.frame.height, self.frame.width
-            return np.ascontiguousarray(self.frame.backend.to_host(acc).reshape(h, w, 4)[..., :3])
+            return np.ascontiguousarray(self.frame.backend.to_host(acc).reshape(h, w, -1)[..., :3])
         return np.ascontiguousarray(read_rgba(acc)[..., :3])
 
     def release(self) -> None:

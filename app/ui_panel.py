@@ -253,6 +253,8 @@ class Panel:
                 imgui.end_disabled()
         if key == "gbuffer" and self.v.options.get("gbuffer") == "auto":  # what auto picks here
             imgui.text_disabled(f"  auto G-buffer here: {self.v.renderer.gbuffer_source(self.v.pass_name)}")
+        if key == "finish" and self.v.options.get("finish") == "auto":
+            imgui.text_disabled(f"  auto finish here: {'tracer' if self.v.renderer.finishes_on_tracer() else 'gl'}")
 
     def draw_profiler(self, imgui) -> None:
         v = self.v

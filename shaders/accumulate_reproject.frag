@@ -9,6 +9,7 @@ uniform sampler2D current;
 uniform sampler2D history;      // rgb: mean, a: frames in it
 uniform sampler2D reprojection; // reproject.frag
 uniform float max_count;
+uniform int restart;            // no history to go on from (a reset with the camera still): this frame alone
 out vec4 mean;
 
 void main() {
@@ -18,7 +19,7 @@ void main() {
     vec4 r = texelFetch(reprojection, px, 0);
     vec4 hist = vec4(0.0);
     float wsum = 0.0;
-    if (r.w > 0.0) {
+    if (r.w > 0.0 && restart == 0) {
         ivec2 base = ivec2(floor(r.xy));
         vec2 f = r.xy - vec2(base);
         int mask = int(r.z + 0.5);

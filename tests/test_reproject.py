@@ -47,3 +47,24 @@ def test_the_mean_restarts_where_the_surface_changes(gl):
     assert (counts[1] == 2).all()
     assert (counts[2][floor] == 3).mean() > 0.9  # a small step: nearly every point seen again
     assert (counts[3][floor] == 1).all()
+
+
+def test_a_reset_with_the_camera_still_starts_from_this_frame(gl):
+    """After a reset (here another option) with the camera where it was, the reprojected mean
+    starts from the new frame alone, whatever the history texture held before (another
+    option's mean, or none where the backend accumulated those frames itself: finish=tracer)."""
+    for before in ("finish=gl", "finish=tracer"):
+        r = make(gl, planes(H), ("ao.radius=2", "reproject=false", before))
+        for _ in range(3):
+            r.render(camera(), 48, 32, "ao")
+        r.options.set("reproject", "true")
+        r.options.set("ao.radius", "1")
+        r.render(camera(), 48, 32, "ao")
+        counts = np.frombuffer(r.accumulation.ping["c"].read(), np.float32).reshape(32, 48, 4)[..., 3]
+        mean = r.read_linear()
+        r.release()
+        fresh = make(gl, planes(H), ("ao.radius=1", "reproject=true"))
+        fresh.render(camera(), 48, 32, "ao")
+        np.testing.assert_array_equal(counts[counts > 0], 1.0, err_msg=before)
+        np.testing.assert_allclose(mean, fresh.read_linear(), atol=1e-6, err_msg=before)
+        fresh.release()

@@ -125,6 +125,30 @@ def test_accumulation_resets_on_camera_resize_and_option(gl):
     r.release()
 
 
+@pytest.mark.parametrize("sets", [(), ("max_frames=2",), ("accumulate=false",), ("exposure=3",)])
+def test_frame_finished_on_embree_threads_as_in_gl(gl, sets):
+    """finish=tracer: Embree's threads accumulate and tone-map the frame (rt/embree/present.py)
+    and only the 8-bit image goes to GL; the mean, the max_frames stop and the display are GL's
+    (accumulate.frag, tonemap.frag, finish=gl), to float rounding and one 8-bit step at most. And
+    auto picks the tracer on this CPU rasteriser."""
+    scene = build_builtin("street")
+    cam = Camera.from_view(scene.default_view(), scene.diagonal)
+    out = {}
+    for finish in ("gl", "tracer", "auto"):
+        r = make(gl, scene, ("gbuffer=rt", "gi.rays_per_pixel=1", f"finish={finish}") + sets)
+        for _ in range(3):
+            r.render(cam, 96, 54, "gi")
+        presented = "present" in r.profiler.frame and "tonemap" not in r.profiler.frame
+        out[finish] = (r.read_linear(), r.read_display().astype(int), r.frame_count, presented)
+        r.release()
+    (lin_g, disp_g, n_g, on_g), (lin_t, disp_t, n_t, on_t) = out["gl"], out["tracer"]
+    assert on_t and out["auto"][3] and not on_g
+    assert n_g == n_t == {"max_frames=2": 2, "accumulate=false": 0}.get((sets or ("",))[0], 3)
+    np.testing.assert_allclose(lin_t, lin_g, rtol=1e-6, atol=1e-7)
+    assert np.abs(disp_t - disp_g).max() <= 1 and np.mean(disp_t != disp_g) < 0.01
+    np.testing.assert_array_equal(out["auto"][1], disp_t)
+
+
 def test_accumulation_reduces_noise(gl):
     scene = closed_box()
     one = run(gl, scene, "gi", frames=1, size=(40, 30))

@@ -210,12 +210,13 @@ def test_a_failing_device_falls_back_to_embree(gl, vulkan, monkeypatch):
 def test_frame_ends_on_the_device_as_in_gl(gl, vulkan, sets):
     """With a device backend the running mean and the tone mapping run on the device and only
     the 8-bit image comes back (Renderer._present); the mean, the max_frames stop and the
-    display are GL's (accumulate.frag, tonemap.frag)."""
+    display are GL's (accumulate.frag, tonemap.frag: Embree's frames with finish=gl)."""
     scene = build_builtin("street")
     cam = Camera.from_view(scene.default_view(), scene.diagonal)
     out = {}
     for tracer in ("embree", "vulkan"):
-        r = make(gl, scene, ("gbuffer=rt", f"tracer={tracer}", "gi.rays_per_pixel=1") + sets)
+        r = make(gl, scene, ("gbuffer=rt", f"tracer={tracer}", "gi.rays_per_pixel=1",
+                             "finish=" + ("gl" if tracer == "embree" else "auto")) + sets)
         for _ in range(3):
             r.render(cam, 96, 54, "gi")
         on_device = not hasattr(r.frame.channels["accumulated"], "read")

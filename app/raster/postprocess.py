@@ -51,6 +51,9 @@ class AccumulationPass(Pass):
                 reprojection.use(2)
                 set_uniform(prog, "reprojection", 2)
                 set_uniform(prog, "max_count", float(max_frames))
+                # after a reset the history texture holds another image (or a frame the backend
+                # accumulated itself: Backend.present), unless the camera moved and the mean goes on
+                set_uniform(prog, "restart", int(self.count == 0 and not frame.moved))
             vao.render(vertices=3)
         self.ping, self.pong = self.pong, self.ping
         self.count += 1

@@ -85,6 +85,25 @@ class EmbreeBackend(Backend):
         v = values[channel]
         return rf.full(np.broadcast_to(v, (len(s), 3)) if v.shape[1] == 1 else v)
 
+    def present(self, radiance, weight: float, exposure: float, display=None, oidn=None) -> tuple:
+        """The end of the frame on the tracer's threads (rt/embree/present.py), where option
+        finish puts it (Renderer._presents): the running mean of radiance (weight: 1 / (frames so
+        far + 1), 1 restarts it, 0 keeps it) and its tone-mapped 8-bit RGBA, rows bottom-up as GL
+        stores a texture. Returns both, the mean (width x height, 3) top row first; valid until
+        the next frame's present."""
+        from rt.embree.present import present
+
+        w, h = self.inputs.width, self.inputs.height
+        mean = self._buffers.get("present.mean")
+        if mean is None or mean.shape != (w * h, 3):
+            mean = self._buffers["present.mean"] = np.zeros((w * h, 3), np.float32)
+            weight = 1.0  # no mean of this size to go on from
+        shown = self._buffers.get("present.display")
+        if shown is None or shown.shape != (h, w, 4):
+            shown = self._buffers["present.display"] = np.empty((h, w, 4), np.uint8)
+        present(self.tracer, np.ascontiguousarray(radiance, np.float32), mean, shown, w, h, weight, exposure)
+        return mean, shown
+
     def to_host(self, image) -> np.ndarray:
         return image
 
