@@ -1,6 +1,6 @@
-"""Camera rays traced as packets of 4 x 4 pixels (rtcIntersect16, rtcore.intersect_tiles) give
+"""Camera rays traced as packets of tiles of pixels (rtcIntersect8, rtcore.intersect_tiles) give
 the same hits, to the bit, as one ray at a time: on a built-in scene, at sizes that leave part
-tiles at the edges, and through the alpha filter of masked materials. So do the packets of 16
+tiles at the edges, and through the alpha filter of masked materials. So do the packets
 that every other ray is traced in (rtcore.intersect_range, occluded_range; the generators'
 shadow and AO rays through raygen._trace_add): incoherent rays, part packets at the end."""
 import numpy as np

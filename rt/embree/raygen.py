@@ -140,7 +140,7 @@ def surface_soa(P, N, NG, out):
 
 @njit(cache=True, error_model="numpy")
 def tracing(tr):
-    """A generator's tracing record: the target tr (rtcore.target) with a packet of 16 rays of
+    """A generator's tracing record: the target tr (rtcore.target) with a packet of rays (rtcore.PACKET) of
     its own (rtcore.packet) and which ray of a step each of its lanes holds."""
     return tr, embree.packet(), np.empty(embree.PACKET, np.int64)
 
@@ -195,7 +195,7 @@ def _pack(G, g0, b0, nb, blk, m, tmax_value, packed, light):
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
-    """_pack's rays, traced instead of written out, 16 to a packet (rtcore.occluded16); acc[point]
+    """_pack's rays, traced instead of written out, rtcore.PACKET to a packet (occluded_packet); acc[point]
     gains what each ray that gets through carries (see _pack and the module notes). trace:
     tracing(tr)'s record. Returns how many were traced."""
     tr, pk, lane_of = trace
@@ -232,9 +232,9 @@ def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
 def _add_unblocked(G, g0, b0, blk, scene, pk, lane_of, lanes, acc, light):
     """Trace a packet of _trace_add's rays (lane k: the step's ray lane_of[k]); acc[point] gains
     what each ray that gets through carries."""
-    embree.occluded16(scene, pk, lanes)
+    embree.occluded_packet(scene, pk, lanes)
     for k in range(lanes):
-        if embree.blocked16(pk, k):
+        if embree.blocked_lane(pk, k):
             continue
         j = lane_of[k]
         i = b0 + j

@@ -3,7 +3,7 @@ compiled code (numba).
 
 embreex ships libembree4 but its `run` takes whole arrays and returns fresh ones, so every
 call costs Python work under the GIL and allocations (an intersect call makes six output
-arrays). Here ray queries are plain calls of `rtcIntersect16` / `rtcOccluded16` (packets of 16)
+arrays). Here ray queries are plain calls of `rtcIntersect8` / `rtcOccluded8` (packets of PACKET)
 from numba kernels that run without the GIL: a chunk's tracing is one GIL-free call writing
 into the caller's arrays, and kernels may trace rays as they make them. The single-ray calls
 (`intersect1`, `occluded1`) stay as the reference the packets are tested against. The library is embreex's own
@@ -271,17 +271,22 @@ def intersect_blocks(counter, bounds, scene, o, d, tmax, t, prim, u, v):
         intersect_range(scene, pk, o, d, tmax, t, prim, u, v, b0, b1)
 
 
-# -- packets of 16 coherent rays (camera rays): rtcIntersect16 on 4 x 4 pixel tiles ------------
-# RTCRayHit16 (embree4/rtcore_ray.h) is structure-of-arrays, 16 lanes a field: the ray's org_x,
-# org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, mask, id, flags, then the hit's Ng_x,
-# Ng_y, Ng_z, u, v, primID, geomID, instID (and instPrimID where built with instance arrays).
-# Neighbouring pixels' rays traverse the same BVH nodes: Embree walks them together, in SIMD.
-PACKET = 16
+# -- packets of PACKET rays: rtcIntersect8 / rtcOccluded8 ---------------------------------------
+# RTCRayHit8 (embree4/rtcore_ray.h) is structure-of-arrays, a lane per ray in each field: the ray's
+# org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, mask, id, flags, then the hit's
+# Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID (and instPrimID where built with instance arrays).
+# Camera rays go as tiles of TILE_W x TILE_H pixels (intersect_tiles): neighbouring pixels' rays
+# traverse the same BVH nodes, and Embree walks them together, in SIMD. Eight lanes, not sixteen:
+# on an AVX-512 Xeon (2 cores) the same camera rays took 89-93 ms a million on one thread as
+# packets of 8, 111-116 as packets of 16 (arcade, temple, park; the same hits to the bit), and
+# incoherent rays 4-6 % less (report/HISTORY.md).
+PACKET = 8
+TILE_W, TILE_H = 4, PACKET // 4
 PACKET_WORDS = 21 * PACKET  # every field above, with room for instPrimID
 _T_FAR, _U, _V, _PRIM, _GEOM = 8 * PACKET, 15 * PACKET, 16 * PACKET, 17 * PACKET, 18 * PACKET
 # (valid, scene, rayhit, arguments)
-_intersect16 = types.ExternalFunction("rtcIntersect16", types.void(types.uintp, types.uintp, types.uintp,
-                                                                   types.uintp))
+_intersect_packet = types.ExternalFunction(f"rtcIntersect{PACKET}", types.void(types.uintp, types.uintp,
+                                                                              types.uintp, types.uintp))
 
 
 @njit(cache=True, error_model="numpy")
@@ -293,15 +298,15 @@ def _aligned(n, dtype):
 
 
 # the same packets for rays in no particular order (bounce, mirror, shadow and AO rays): Embree's
-# packet traversal walks 16 rays' nodes in SIMD, switching to single rays where they part; on
+# packet traversal walks the lanes' nodes in SIMD, switching to single rays where they part; on
 # incoherent bounce rays it traced 1.26-1.37x the rays a second of rtcIntersect1 (report/HISTORY.md)
-_occluded16 = types.ExternalFunction("rtcOccluded16", types.void(types.uintp, types.uintp, types.uintp,
-                                                                 types.uintp))
+_occluded_packet = types.ExternalFunction(f"rtcOccluded{PACKET}", types.void(types.uintp, types.uintp,
+                                                                            types.uintp, types.uintp))
 
 
 @njit(cache=True, error_model="numpy")
 def packet():
-    """A per-call RTCRayHit16 (SoA) and its valid mask, 64-byte aligned: (ray, its words, valid)."""
+    """A per-call RTCRayHit8 (SoA) and its valid mask, 64-byte aligned: (ray, its words, valid)."""
     ray = _aligned(PACKET_WORDS, np.float32)
     return ray, ray.view(np.uint32), _aligned(PACKET, np.int32)
 
@@ -330,28 +335,28 @@ def _lanes_valid(ray, words, valid, lanes):
 
 
 @njit(cache=True, error_model="numpy")
-def occluded16(scene, pk, lanes):
-    """Trace a packet's first `lanes` rays for occlusion; lane k is blocked when blocked16(pk, k)."""
+def occluded_packet(scene, pk, lanes):
+    """Trace a packet's first `lanes` rays for occlusion; lane k is blocked when blocked_lane(pk, k)."""
     ray, words, valid = pk
     _lanes_valid(ray, words, valid, lanes)
-    _occluded16(valid.ctypes.data, scene, ray.ctypes.data, 0)
+    _occluded_packet(valid.ctypes.data, scene, ray.ctypes.data, 0)
 
 
 @njit(cache=True, error_model="numpy")
-def blocked16(pk, k):
+def blocked_lane(pk, k):
     return pk[0][_T_FAR + k] < 0.0  # Embree sets tfar to -inf on a hit
 
 
 @njit(cache=True, error_model="numpy")
-def intersect16(scene, pk, lanes):
-    """Trace a packet's first `lanes` rays to their closest hits; hit16(pk, k) reads lane k's."""
+def intersect_packet(scene, pk, lanes):
+    """Trace a packet's first `lanes` rays to their closest hits; hit_lane(pk, k) reads lane k's."""
     ray, words, valid = pk
     _lanes_valid(ray, words, valid, lanes)
-    _intersect16(valid.ctypes.data, scene, ray.ctypes.data, 0)
+    _intersect_packet(valid.ctypes.data, scene, ray.ctypes.data, 0)
 
 
 @njit(cache=True, error_model="numpy")
-def hit16(pk, k):
+def hit_lane(pk, k):
     """Lane k's closest hit as intersect1 returns it: (t, prim, u, v), prim -1 and t MISS_T on a miss."""
     ray, words = pk[0], pk[1]
     if words[_GEOM + k] == INVALID:
@@ -371,31 +376,31 @@ def _fill_lanes(pk, o, d, tmax, p0, i1):
 
 @njit(cache=True, error_model="numpy")
 def occluded_range(scene, pk, o, d, tmax, out, i0, i1):
-    """out[i] = ray i blocked within tmax[i], for i0 <= i < i1, 16 rays a packet."""
+    """out[i] = ray i blocked within tmax[i], for i0 <= i < i1, PACKET rays a packet."""
     for p0 in range(i0, i1, PACKET):
         lanes = _fill_lanes(pk, o, d, tmax, p0, i1)
-        occluded16(scene, pk, lanes)
+        occluded_packet(scene, pk, lanes)
         for k in range(lanes):
-            out[p0 + k] = blocked16(pk, k)
+            out[p0 + k] = blocked_lane(pk, k)
 
 
 @njit(cache=True, error_model="numpy")
 def intersect_range(scene, pk, o, d, tmax, t, prim, u, v, i0, i1):
-    """Closest hits of rays i0 <= i < i1 within tmax[i] into t, prim, u, v, 16 rays a packet."""
+    """Closest hits of rays i0 <= i < i1 within tmax[i] into t, prim, u, v, PACKET rays a packet."""
     for p0 in range(i0, i1, PACKET):
         lanes = _fill_lanes(pk, o, d, tmax, p0, i1)
-        intersect16(scene, pk, lanes)
+        intersect_packet(scene, pk, lanes)
         for k in range(lanes):
-            t[p0 + k], prim[p0 + k], u[p0 + k], v[p0 + k] = hit16(pk, k)
+            t[p0 + k], prim[p0 + k], u[p0 + k], v[p0 + k] = hit_lane(pk, k)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
     """Closest hits (as intersect()) of the rays of a width x height image, o and d in pixel
-    order, traced a 4 x 4 tile at a time as one packet (rtcIntersect16); one worker of
-    Tracer.run_parallel over the tiles, row of tiles by row."""
+    order, traced a TILE_W x TILE_H tile at a time as one packet; one worker of
+    Tracer.run_parallel over the tiles (tiles()), row of tiles by row."""
     n = bounds[bounds.shape[0] - 1]
-    tiles_x = (width + 3) // 4
+    tiles_x = (width + TILE_W - 1) // TILE_W
     ray = _aligned(PACKET_WORDS, np.float32)
     words = ray.view(np.uint32)
     valid = _aligned(PACKET, np.int32)
@@ -405,9 +410,9 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
         if b0 >= n:
             return 0
         for tile in range(b0, b1):
-            x0, y0 = (tile % tiles_x) * 4, (tile // tiles_x) * 4
+            x0, y0 = (tile % tiles_x) * TILE_W, (tile // tiles_x) * TILE_H
             for k in range(PACKET):
-                x, y = x0 + (k & 3), y0 + (k >> 2)
+                x, y = x0 + (k % TILE_W), y0 + (k // TILE_W)
                 if x < width and y < height:
                     p = y * width + x
                     valid[k] = -1
@@ -425,7 +430,7 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
                 words[11 * PACKET + k] = 0  # flags
                 words[_PRIM + k] = INVALID
                 words[_GEOM + k] = INVALID
-            _intersect16(valid.ctypes.data, scene, ray.ctypes.data, 0)
+            _intersect_packet(valid.ctypes.data, scene, ray.ctypes.data, 0)
             for k in range(PACKET):
                 if valid[k] == 0:
                     continue
@@ -434,3 +439,8 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
                     t[p], prim[p], u[p], v[p] = MISS_T, -1, 0.0, 0.0
                 else:
                     t[p], prim[p], u[p], v[p] = ray[_T_FAR + k], np.int32(words[_PRIM + k]), ray[_U + k], ray[_V + k]
+
+
+def tiles(width: int, height: int) -> int:
+    """How many packets intersect_tiles traces for a width x height image."""
+    return ((width + TILE_W - 1) // TILE_W) * ((height + TILE_H - 1) // TILE_H)

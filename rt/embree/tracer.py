@@ -170,7 +170,7 @@ class EmbreeTracer(Tracer):
         return Hits(t, prim, u, v)
 
     def intersect_image(self, origins, dirs, width: int, height: int) -> Hits:
-        """Packets of 4 x 4 pixels (rtcore.intersect_tiles) on this tracer's threads."""
+        """Packets of rtcore.TILE_W x TILE_H pixels (rtcore.intersect_tiles) on this tracer's threads."""
         o = np.ascontiguousarray(origins, np.float32)
         d = np.ascontiguousarray(dirs, np.float32)
         n = o.shape[0]
@@ -179,8 +179,7 @@ class EmbreeTracer(Tracer):
         if self.recording is not None:  # the G-buffer's rays: replay_primary, not a pass's replay
             self.recording.add("primary", o, d, _distances(INF, n), (width, height))
         if n:
-            tiles = ((width + 3) // 4) * ((height + 3) // 4)
-            self.run_parallel(embree.intersect_tiles, tiles, self.handle, o, d, width, height, t, prim, u, v)
+            self.run_parallel(embree.intersect_tiles, embree.tiles(width, height), self.handle, o, d, width, height, t, prim, u, v)
         self.rays_traced += n
         return Hits(t, prim, u, v)
 
@@ -314,12 +313,12 @@ class EmbreeTracer(Tracer):
         return time.perf_counter() - t0
 
     def replay_primary(self, batches: list) -> float:
-        """Trace recorded camera rays again, Embree alone, as the G-buffer traces them (4 x 4
-        pixel packets, intersect_image); returns the seconds spent."""
+        """Trace recorded camera rays again, Embree alone, as the G-buffer traces them (tiles
+        of pixels as packets, intersect_image); returns the seconds spent."""
         runs = []
         for _, o, d, _, (width, height) in (b for b in batches if b[0] == "primary"):
             n = o.shape[0]
-            runs.append((((width + 3) // 4) * ((height + 3) // 4), o, d, width, height, np.empty(n, np.float32),
+            runs.append((embree.tiles(width, height), o, d, width, height, np.empty(n, np.float32),
                          np.empty(n, np.int32), np.empty(n, np.float32), np.empty(n, np.float32)))
         t0 = time.perf_counter()
         for tiles, *args in runs:
