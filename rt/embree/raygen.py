@@ -140,9 +140,9 @@ def surface_soa(P, N, NG, out):
 
 @njit(cache=True, error_model="numpy")
 def tracing(tr):
-    """A generator's tracing record: the target tr (rtcore.target) with a packet of rays (rtcore.PACKET) of
+    """A generator's tracing record: the target tr (rtcore.target) with a packet of rays (rtcore.OCCLUDE_PACKET) of
     its own (rtcore.packet) and which ray of a step each of its lanes holds."""
-    return tr, embree.packet(), np.empty(embree.PACKET, np.int64)
+    return tr, embree.packet(embree.OCCLUDE_PACKET), np.empty(embree.OCCLUDE_PACKET, np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -195,7 +195,7 @@ def _pack(G, g0, b0, nb, blk, m, tmax_value, packed, light):
 
 @njit(cache=True, error_model="numpy", fastmath=True)
 def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
-    """_pack's rays, traced instead of written out, rtcore.PACKET to a packet (occluded_packet); acc[point]
+    """_pack's rays, traced instead of written out, rtcore.OCCLUDE_PACKET to a packet (occluded_packet); acc[point]
     gains what each ray that gets through carries (see _pack and the module notes). trace:
     tracing(tr)'s record. Returns how many were traced."""
     tr, pk, lane_of = trace
@@ -217,10 +217,11 @@ def _trace_add(G, g0, b0, nb, blk, tmax_value, trace, acc, light):
         t = shadow_tmax(blk[DIST, j]) if light else tmax_value
         m += 1
         embree.log_put(tr, slot, ZERO, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t)
-        embree.set_lane(pk[0], pk[1], lanes, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j], blk[DIR + 2, j], t)
+        embree.set_lane(pk[0], pk[1], embree.OCCLUDE_PACKET, lanes, ox, oy, oz, blk[DIR, j], blk[DIR + 1, j],
+                        blk[DIR + 2, j], t)
         lane_of[lanes] = j
         lanes += 1
-        if lanes == embree.PACKET:
+        if lanes == embree.OCCLUDE_PACKET:
             _add_unblocked(G, g0, b0, blk, tr[0], pk, lane_of, lanes, acc, light)
             lanes = 0
     if lanes:

@@ -3,7 +3,7 @@ compiled code (numba).
 
 embreex ships libembree4 but its `run` takes whole arrays and returns fresh ones, so every
 call costs Python work under the GIL and allocations (an intersect call makes six output
-arrays). Here ray queries are plain calls of `rtcIntersect8` / `rtcOccluded8` (packets of PACKET)
+arrays). Here ray queries are plain calls of `rtcIntersect8` / `rtcOccluded16` (packets)
 from numba kernels that run without the GIL: a chunk's tracing is one GIL-free call writing
 into the caller's arrays, and kernels may trace rays as they make them. The single-ray calls
 (`intersect1`, `occluded1`) stay as the reference the packets are tested against. The library is embreex's own
@@ -185,13 +185,13 @@ def intersect1(scene, buf, words, b, ox, oy, oz, dx, dy, dz, tmax):
 @njit(cache=True, error_model="numpy", nogil=True)
 def occluded(scene, o, d, tmax, out):
     """out[i] = ray i is blocked within tmax[i]; o, d (n,3) float32."""
-    occluded_range(scene, packet(), o, d, tmax, out, 0, o.shape[0])
+    occluded_range(scene, packet(OCCLUDE_PACKET), o, d, tmax, out, 0, o.shape[0])
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def intersect(scene, o, d, tmax, t, prim, u, v):
     """Closest hits of rays i within tmax[i] into t, prim, u, v (see intersect1)."""
-    intersect_range(scene, packet(), o, d, tmax, t, prim, u, v, 0, o.shape[0])
+    intersect_range(scene, packet(HIT_PACKET), o, d, tmax, t, prim, u, v, 0, o.shape[0])
 
 
 # -- tracing targets: a scene handle, and where the rays traced are logged ---------------------
@@ -251,7 +251,7 @@ def occluded_blocks(counter, bounds, scene, o, d, tmax, out):
     """occluded() as one worker of Tracer.run_parallel: blocks of rays (bounds) taken in turn
     until none is left, no Python per block (Embree's own throughput on these rays)."""
     n = o.shape[0]
-    pk = packet()
+    pk = packet(OCCLUDE_PACKET)
     while True:
         b0, b1 = next_block(counter, bounds)
         if b0 >= n:
@@ -263,7 +263,7 @@ def occluded_blocks(counter, bounds, scene, o, d, tmax, out):
 def intersect_blocks(counter, bounds, scene, o, d, tmax, t, prim, u, v):
     """intersect() as occluded_blocks splits its work."""
     n = o.shape[0]
-    pk = packet()
+    pk = packet(HIT_PACKET)
     while True:
         b0, b1 = next_block(counter, bounds)
         if b0 >= n:
@@ -271,22 +271,26 @@ def intersect_blocks(counter, bounds, scene, o, d, tmax, t, prim, u, v):
         intersect_range(scene, pk, o, d, tmax, t, prim, u, v, b0, b1)
 
 
-# -- packets of PACKET rays: rtcIntersect8 / rtcOccluded8 ---------------------------------------
-# RTCRayHit8 (embree4/rtcore_ray.h) is structure-of-arrays, a lane per ray in each field: the ray's
-# org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, mask, id, flags, then the hit's
-# Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID (and instPrimID where built with instance arrays).
-# Camera rays go as tiles of TILE_W x TILE_H pixels (intersect_tiles): neighbouring pixels' rays
-# traverse the same BVH nodes, and Embree walks them together, in SIMD. Eight lanes, not sixteen:
-# on an AVX-512 Xeon (2 cores) the same camera rays took 89-93 ms a million on one thread as
-# packets of 8, 111-116 as packets of 16 (arcade, temple, park; the same hits to the bit), and
-# incoherent rays 4-6 % less (report/HISTORY.md).
-PACKET = 8
-TILE_W, TILE_H = 4, PACKET // 4
-PACKET_WORDS = 21 * PACKET  # every field above, with room for instPrimID
-_T_FAR, _U, _V, _PRIM, _GEOM = 8 * PACKET, 15 * PACKET, 16 * PACKET, 17 * PACKET, 18 * PACKET
+# -- packets: rtcOccluded16 and rtcIntersect8 -------------------------------------------------
+# RTCRayHitN (embree4/rtcore_ray.h) is structure-of-arrays, a lane per ray in each of FIELDS: the
+# ray's org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, mask, id, flags, then the
+# hit's Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID (and instPrimID where built with instance
+# arrays). Embree walks a packet's rays through the BVH together, in SIMD, switching to single
+# rays where they part; on incoherent bounce rays packets traced 1.26-1.37x the rays a second of
+# rtcIntersect1 (report/HISTORY.md). Camera rays go as tiles of TILE_W x TILE_H pixels
+# (intersect_tiles), whose rays share most nodes. The widths, measured on an AVX-512 Xeon (2
+# cores): closest hits as packets of 8 (camera rays 89-93 ms a million on one thread against
+# 111-116 as packets of 16; GI frames 3-5 % faster), occlusion as packets of 16 (the AO pass
+# 32 ms at 1280x720 against 36-38 as packets of 8); the same hits to the bit either way.
+OCCLUDE_PACKET, HIT_PACKET = 16, 8
+TILE_W, TILE_H = 4, HIT_PACKET // 4
+FIELDS = 21  # every field above, with room for instPrimID
+_TNEAR, _TIME, _T_FAR, _MASK, _ID, _FLAGS, _U, _V, _PRIM, _GEOM = 3, 7, 8, 9, 10, 11, 15, 16, 17, 18
 # (valid, scene, rayhit, arguments)
-_intersect_packet = types.ExternalFunction(f"rtcIntersect{PACKET}", types.void(types.uintp, types.uintp,
-                                                                              types.uintp, types.uintp))
+_intersect_packet = types.ExternalFunction(f"rtcIntersect{HIT_PACKET}", types.void(types.uintp, types.uintp,
+                                                                                  types.uintp, types.uintp))
+_occluded_packet = types.ExternalFunction(f"rtcOccluded{OCCLUDE_PACKET}", types.void(types.uintp, types.uintp,
+                                                                                    types.uintp, types.uintp))
 
 
 @njit(cache=True, error_model="numpy")
@@ -297,88 +301,85 @@ def _aligned(n, dtype):
     return buf[skip:skip + n]
 
 
-# the same packets for rays in no particular order (bounce, mirror, shadow and AO rays): Embree's
-# packet traversal walks the lanes' nodes in SIMD, switching to single rays where they part; on
-# incoherent bounce rays it traced 1.26-1.37x the rays a second of rtcIntersect1 (report/HISTORY.md)
-_occluded_packet = types.ExternalFunction(f"rtcOccluded{PACKET}", types.void(types.uintp, types.uintp,
-                                                                            types.uintp, types.uintp))
+@njit(cache=True, error_model="numpy")
+def packet(lanes):
+    """A per-call RTCRayHitN (SoA) of `lanes` lanes (OCCLUDE_PACKET for occluded_packet,
+    HIT_PACKET for intersect_packet) and its valid mask, 64-byte aligned: (ray, its words, valid)."""
+    ray = _aligned(FIELDS * lanes, np.float32)
+    return ray, ray.view(np.uint32), _aligned(lanes, np.int32)
 
 
 @njit(cache=True, error_model="numpy")
-def packet():
-    """A per-call RTCRayHit8 (SoA) and its valid mask, 64-byte aligned: (ray, its words, valid)."""
-    ray = _aligned(PACKET_WORDS, np.float32)
-    return ray, ray.view(np.uint32), _aligned(PACKET, np.int32)
+def set_lane(ray, words, w, k, ox, oy, oz, dx, dy, dz, tmax):
+    """Lane k of a packet of w lanes (the packet's width, a constant where called, so that the
+    offsets are too): the ray from o along d within (0, tmax), no hit yet."""
+    ray[k], ray[w + k], ray[2 * w + k], ray[_TNEAR * w + k] = ox, oy, oz, 0.0
+    ray[4 * w + k], ray[5 * w + k], ray[6 * w + k], ray[_TIME * w + k] = dx, dy, dz, 0.0
+    ray[_T_FAR * w + k] = tmax
+    words[_MASK * w + k] = INVALID  # mask: every geometry
+    words[_ID * w + k] = 0
+    words[_FLAGS * w + k] = 0
+    words[_PRIM * w + k] = INVALID
+    words[_GEOM * w + k] = INVALID
 
 
 @njit(cache=True, error_model="numpy")
-def set_lane(ray, words, k, ox, oy, oz, dx, dy, dz, tmax):
-    """Lane k of a packet: the ray from o along d within (0, tmax), no hit yet."""
-    ray[k], ray[PACKET + k], ray[2 * PACKET + k], ray[3 * PACKET + k] = ox, oy, oz, 0.0
-    ray[4 * PACKET + k], ray[5 * PACKET + k], ray[6 * PACKET + k], ray[7 * PACKET + k] = dx, dy, dz, 0.0
-    ray[_T_FAR + k] = tmax
-    words[9 * PACKET + k] = INVALID  # mask: every geometry
-    words[10 * PACKET + k] = 0  # id
-    words[11 * PACKET + k] = 0  # flags
-    words[_PRIM + k] = INVALID
-    words[_GEOM + k] = INVALID
-
-
-@njit(cache=True, error_model="numpy")
-def _lanes_valid(ray, words, valid, lanes):
-    """Lanes 0..lanes-1 valid; the others a copy of lane 0, masked off."""
-    for k in range(PACKET):
+def _lanes_valid(ray, words, valid, w, lanes):
+    """Lanes 0..lanes-1 of a packet of w valid; the others a copy of lane 0, masked off."""
+    for k in range(w):
         valid[k] = -1 if k < lanes else 0
         if k >= lanes:
-            set_lane(ray, words, k, ray[0], ray[PACKET], ray[2 * PACKET], ray[4 * PACKET], ray[5 * PACKET],
-                     ray[6 * PACKET], ray[_T_FAR])
+            set_lane(ray, words, w, k, ray[0], ray[w], ray[2 * w], ray[4 * w], ray[5 * w], ray[6 * w],
+                     ray[_T_FAR * w])
 
 
 @njit(cache=True, error_model="numpy")
 def occluded_packet(scene, pk, lanes):
-    """Trace a packet's first `lanes` rays for occlusion; lane k is blocked when blocked_lane(pk, k)."""
+    """Trace the first `lanes` rays of a packet(OCCLUDE_PACKET) for occlusion; lane k is blocked
+    when blocked_lane(pk, k)."""
     ray, words, valid = pk
-    _lanes_valid(ray, words, valid, lanes)
+    _lanes_valid(ray, words, valid, OCCLUDE_PACKET, lanes)
     _occluded_packet(valid.ctypes.data, scene, ray.ctypes.data, 0)
 
 
 @njit(cache=True, error_model="numpy")
 def blocked_lane(pk, k):
-    return pk[0][_T_FAR + k] < 0.0  # Embree sets tfar to -inf on a hit
+    return pk[0][_T_FAR * OCCLUDE_PACKET + k] < 0.0  # Embree sets tfar to -inf on a hit
 
 
 @njit(cache=True, error_model="numpy")
 def intersect_packet(scene, pk, lanes):
-    """Trace a packet's first `lanes` rays to their closest hits; hit_lane(pk, k) reads lane k's."""
+    """Trace the first `lanes` rays of a packet(HIT_PACKET) to their closest hits; hit_lane(pk, k)
+    reads lane k's."""
     ray, words, valid = pk
-    _lanes_valid(ray, words, valid, lanes)
+    _lanes_valid(ray, words, valid, HIT_PACKET, lanes)
     _intersect_packet(valid.ctypes.data, scene, ray.ctypes.data, 0)
 
 
 @njit(cache=True, error_model="numpy")
 def hit_lane(pk, k):
     """Lane k's closest hit as intersect1 returns it: (t, prim, u, v), prim -1 and t MISS_T on a miss."""
-    ray, words = pk[0], pk[1]
-    if words[_GEOM + k] == INVALID:
+    ray, words, w = pk[0], pk[1], HIT_PACKET
+    if words[_GEOM * w + k] == INVALID:
         return MISS_T, np.int32(-1), np.float32(0.0), np.float32(0.0)
-    return ray[_T_FAR + k], np.int32(words[_PRIM + k]), ray[_U + k], ray[_V + k]
+    return ray[_T_FAR * w + k], np.int32(words[_PRIM * w + k]), ray[_U * w + k], ray[_V * w + k]
 
 
 @njit(cache=True, error_model="numpy")
-def _fill_lanes(pk, o, d, tmax, p0, i1):
-    """The packet's lanes from rays p0, p0 + 1, ... (before i1) of o, d, tmax; returns how many."""
-    lanes = min(PACKET, i1 - p0)
+def _fill_lanes(pk, w, o, d, tmax, p0, i1):
+    """The lanes of a packet of w from rays p0, p0 + 1, ... (before i1) of o, d, tmax; returns how many."""
+    lanes = min(w, i1 - p0)
     for k in range(lanes):
         i = p0 + k
-        set_lane(pk[0], pk[1], k, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
+        set_lane(pk[0], pk[1], w, k, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], tmax[i])
     return lanes
 
 
 @njit(cache=True, error_model="numpy")
 def occluded_range(scene, pk, o, d, tmax, out, i0, i1):
-    """out[i] = ray i blocked within tmax[i], for i0 <= i < i1, PACKET rays a packet."""
-    for p0 in range(i0, i1, PACKET):
-        lanes = _fill_lanes(pk, o, d, tmax, p0, i1)
+    """out[i] = ray i blocked within tmax[i], for i0 <= i < i1, OCCLUDE_PACKET rays a packet (pk)."""
+    for p0 in range(i0, i1, OCCLUDE_PACKET):
+        lanes = _fill_lanes(pk, OCCLUDE_PACKET, o, d, tmax, p0, i1)
         occluded_packet(scene, pk, lanes)
         for k in range(lanes):
             out[p0 + k] = blocked_lane(pk, k)
@@ -386,9 +387,10 @@ def occluded_range(scene, pk, o, d, tmax, out, i0, i1):
 
 @njit(cache=True, error_model="numpy")
 def intersect_range(scene, pk, o, d, tmax, t, prim, u, v, i0, i1):
-    """Closest hits of rays i0 <= i < i1 within tmax[i] into t, prim, u, v, PACKET rays a packet."""
-    for p0 in range(i0, i1, PACKET):
-        lanes = _fill_lanes(pk, o, d, tmax, p0, i1)
+    """Closest hits of rays i0 <= i < i1 within tmax[i] into t, prim, u, v, HIT_PACKET rays a
+    packet (pk)."""
+    for p0 in range(i0, i1, HIT_PACKET):
+        lanes = _fill_lanes(pk, HIT_PACKET, o, d, tmax, p0, i1)
         intersect_packet(scene, pk, lanes)
         for k in range(lanes):
             t[p0 + k], prim[p0 + k], u[p0 + k], v[p0 + k] = hit_lane(pk, k)
@@ -401,17 +403,16 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
     Tracer.run_parallel over the tiles (tiles()), row of tiles by row."""
     n = bounds[bounds.shape[0] - 1]
     tiles_x = (width + TILE_W - 1) // TILE_W
-    ray = _aligned(PACKET_WORDS, np.float32)
-    words = ray.view(np.uint32)
-    valid = _aligned(PACKET, np.int32)
-    pix = np.empty(PACKET, np.int64)
+    ray, words, valid = packet(HIT_PACKET)
+    w = HIT_PACKET
+    pix = np.empty(w, np.int64)
     while True:
         b0, b1 = next_block(counter, bounds)
         if b0 >= n:
             return 0
         for tile in range(b0, b1):
             x0, y0 = (tile % tiles_x) * TILE_W, (tile // tiles_x) * TILE_H
-            for k in range(PACKET):
+            for k in range(w):
                 x, y = x0 + (k % TILE_W), y0 + (k // TILE_W)
                 if x < width and y < height:
                     p = y * width + x
@@ -420,25 +421,17 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
                     p = y0 * width + x0  # a lane left out: any ray, not traced
                     valid[k] = 0
                 pix[k] = p
-                ray[k], ray[PACKET + k], ray[2 * PACKET + k] = o[p, 0], o[p, 1], o[p, 2]
-                ray[3 * PACKET + k] = 0.0  # tnear
-                ray[4 * PACKET + k], ray[5 * PACKET + k], ray[6 * PACKET + k] = d[p, 0], d[p, 1], d[p, 2]
-                ray[7 * PACKET + k] = 0.0  # time
-                ray[_T_FAR + k] = MISS_T
-                words[9 * PACKET + k] = INVALID  # mask: every geometry
-                words[10 * PACKET + k] = 0  # id
-                words[11 * PACKET + k] = 0  # flags
-                words[_PRIM + k] = INVALID
-                words[_GEOM + k] = INVALID
+                set_lane(ray, words, w, k, o[p, 0], o[p, 1], o[p, 2], d[p, 0], d[p, 1], d[p, 2], MISS_T)
             _intersect_packet(valid.ctypes.data, scene, ray.ctypes.data, 0)
-            for k in range(PACKET):
+            for k in range(w):
                 if valid[k] == 0:
                     continue
                 p = pix[k]
-                if words[_GEOM + k] == INVALID:
+                if words[_GEOM * w + k] == INVALID:
                     t[p], prim[p], u[p], v[p] = MISS_T, -1, 0.0, 0.0
                 else:
-                    t[p], prim[p], u[p], v[p] = ray[_T_FAR + k], np.int32(words[_PRIM + k]), ray[_U + k], ray[_V + k]
+                    t[p], prim[p], u[p], v[p] = (ray[_T_FAR * w + k], np.int32(words[_PRIM * w + k]), ray[_U * w + k],
+                                                 ray[_V * w + k])
 
 
 def tiles(width: int, height: int) -> int:
