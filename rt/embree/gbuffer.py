@@ -65,6 +65,7 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     """The G-buffer from primary rays through Embree (`gbuffer=rt`); reuse and jitter as from_raster."""
     from rt.embree import scratch
     from rt.embree.kernels import camera_rays, primary_pixels
+    from rt.embree.raygen import surface_soa
     from rt.embree.shading import empty_surface
 
     n = width * height
@@ -81,10 +82,17 @@ def trace_primary(data: SceneData, tracer, camera, width: int, height: int, reus
     depth = scratch.buffer("gbuffer.rt.depth", (n,)) if reuse else np.empty(n, np.float32)
     idx = idx[:primary_pixels(hits.t, hits.prim, d, f.astype(np.float32), covered, idx, depth)]
     s = empty_surface(len(idx), "gbuffer.rt.s" if reuse else None)
-    # shaded in chunks on the tracer's threads, where surface() runs the serial kernel the passes
-    # link anyway: its parallel loop would be one more kernel to compile before a first frame
-    tracer.map_chunks(len(idx), lambda c, _: data.surface(hits, d, o, sel=idx[c], out=s.take(c)))
-    soa = s.soa("gbuffer.rt.soa" if reuse else None)[0]
+    soa = scratch.buffer("gbuffer.rt.soa", (9, len(idx))) if reuse else np.empty((9, len(idx)), np.float32)
+
+    def shade(c: slice, _) -> None:
+        """A chunk's hits shaded, then its rows for the ray generators (Surface.soa) while they
+        are in the cache. On the tracer's threads, where surface() runs the serial kernel the
+        passes link anyway: its parallel loop would be one more kernel to compile before a
+        first frame."""
+        part = data.surface(hits, d, o, sel=idx[c], out=s.take(c))
+        surface_soa(part.p, part.n, part.ng, soa[:, c])
+
+    tracer.map_chunks(len(idx), shade)
     return CpuGBuffer(width, height, camera.eye.astype(np.float32), d, covered, idx, s, depth, soa)
 
 
