@@ -17,6 +17,7 @@ import numpy as np
 
 from rt.embree import rtcore as embree
 from rt.embree.blocks import block_bounds
+from rt.embree.denormals import flush_denormals, flushed
 from rt.embree.kernels import serial_kernels
 
 INF = np.float32(1e30)
@@ -132,10 +133,15 @@ class EmbreeTracer(Tracer):
         # map_chunks: each chunk's Python glue holds the GIL a little, so fewer, larger chunks
         # than for bare tracing
         self.chunks_per_worker = 1
-        self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self.pool = self._pool(self.threads)
         self.rays_traced = 0
         self.recording: RayLog | None = None  # set to keep every ray traced (bench --perf replays them)
         self._costs: dict = {}  # map_chunks key -> its cost profile (cost_profile)
+
+    @staticmethod
+    def _pool(threads: int) -> ThreadPoolExecutor | None:
+        """The tracing threads (none for one: the caller's), denormals flushed in each (rt/embree/denormals.py)."""
+        return ThreadPoolExecutor(threads, initializer=flush_denormals) if threads > 1 else None
 
     def _chunk_count(self, n: int, per_thread: int | None = None) -> int:
         return max(1, min(self.threads * (per_thread or self.chunks_per_thread), n // self.min_chunk))
@@ -148,8 +154,9 @@ class EmbreeTracer(Tracer):
     def _map(self, fn, n: int) -> None:
         chunks = self._chunks(n)
         if self.pool is None or len(chunks) == 1:
-            for c in chunks:
-                fn(c)
+            with flushed():
+                for c in chunks:
+                    fn(c)
         else:
             list(self.pool.map(fn, chunks))
 
@@ -179,7 +186,8 @@ class EmbreeTracer(Tracer):
         if self.recording is not None:  # the G-buffer's rays: replay_primary, not a pass's replay
             self.recording.add("primary", o, d, _distances(INF, n), (width, height))
         if n:
-            self.run_parallel(embree.intersect_tiles, embree.tiles(width, height), self.handle, o, d, width, height, t, prim, u, v)
+            self.run_parallel(embree.intersect_tiles, embree.tiles(width, height), self.handle, o, d, width, height,
+                              t, prim, u, v)
         self.rays_traced += n
         return Hits(t, prim, u, v)
 
@@ -212,7 +220,8 @@ class EmbreeTracer(Tracer):
         workers = self.threads if self.pool is not None else 1
         counter, bounds = np.zeros(1, np.int64), block_bounds(n, workers)
         if workers == 1:
-            return int(kernel(counter, bounds, *args))
+            with flushed():
+                return int(kernel(counter, bounds, *args))
         running = [self.pool.submit(kernel, counter, bounds, *args) for _ in range(workers)]
         return sum(int(r.result()) for r in running)
 
@@ -248,7 +257,8 @@ class EmbreeTracer(Tracer):
 
         workers = min(self.threads, len(chunks))
         if self.pool is None or workers <= 1:
-            run(0)
+            with flushed():
+                run(0)
         else:
             list(self.pool.map(run, range(workers)))
         self.rays_traced += sum(v.rays_traced for v in views)
@@ -329,7 +339,7 @@ class EmbreeTracer(Tracer):
         if self.pool is not None:
             self.pool.shutdown(wait=True)
         self.threads = threads
-        self.pool = ThreadPoolExecutor(threads) if threads > 1 else None
+        self.pool = self._pool(threads)
 
     def close(self) -> None:
         if self.pool is not None:
