@@ -427,6 +427,8 @@ def intersect_tiles(counter, bounds, scene, o, d, width, height, t, prim, u, v):
                 if valid[k] == 0:
                     continue
                 p = pix[k]
+                # hit_lane's reads, here without its packet tuple (one made per lane cost 55 ms a
+                # 1280x720 frame on one thread: each holds references to the three arrays)
                 if words[_GEOM * w + k] == INVALID:
                     t[p], prim[p], u[p], v[p] = MISS_T, -1, 0.0, 0.0
                 else:
