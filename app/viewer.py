@@ -13,7 +13,7 @@ import os
 import sys
 import time
 from collections import deque
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +51,11 @@ def has_display() -> bool:
 
 
 UI_HZ = 240  # the UI loop's ceiling (Viewer.run)
+# its ceiling where GL is a CPU rasteriser: there each loop's panel and blit take CPU from the
+# tracing threads (arcade at 640x360 on 2 cores: AO 13-14 frames rendered/s with the loop at
+# ~170/s, 19 at 60/s; GI 5.2 -> 7.1), and a display shows no more than its refresh anyway. The
+# loop wakes early where a frame is done (Viewer._pause), so that small frames are not held to it.
+SOFTWARE_UI_HZ = 60
 SWITCH_INTERVAL = 0.0005  # s: how often the interpreter hands the GIL on while the viewer runs
 
 
@@ -394,12 +399,25 @@ class Viewer:
                 self.comparison.track.wait()
             self.frame(0.0, start_new=False)
 
+    def _pause(self, seconds: float, early: bool) -> None:
+        """Sleep out the rest of the loop's period, or with `early` until a frame being traced is
+        done (the next one is then started at once: on a CPU rasteriser, where the period is long)."""
+        tracks = [self.main] + ([self.comparison.track] if self.comparison is not None else [])
+        pending = [t.future for t in tracks if t.future is not None and not t.future.done()] if early else []
+        if pending:
+            wait(pending, timeout=seconds, return_when=FIRST_COMPLETED)
+        else:
+            time.sleep(seconds)
+
     def run(self, exit_after: int = 0, screenshot: str | None = None) -> int:
-        """The UI loop, at most UI_HZ iterations a second. A GPU backend's frames are made by the
-        tracing worker's Python (recording and submitting the device's work), which needs the GIL
-        that the UI loop's Python holds: the loop sleeps out the rest of its 1/UI_HZ s, and the
-        interpreter hands the GIL over every 0.5 ms instead of 5 while the viewer runs."""
+        """The UI loop, at most UI_HZ iterations a second (SOFTWARE_UI_HZ on a CPU rasteriser). A
+        GPU backend's frames are made by the tracing worker's Python (recording and submitting the
+        device's work), which needs the GIL that the UI loop's Python holds: the loop sleeps out
+        the rest of its period (_pause), and the interpreter hands the GIL over every 0.5 ms
+        instead of 5 while the viewer runs."""
         glfw = self.glfw
+        software = self.renderer.software_gl()
+        period = 1.0 / (SOFTWARE_UI_HZ if software else UI_HZ)
         last = time.perf_counter()
         frames = 0
         switch = sys.getswitchinterval()
@@ -418,9 +436,9 @@ class Viewer:
                         self.screenshot(screenshot)
                     break
                 glfw.swap_buffers(self.window)
-                spare = 1.0 / UI_HZ - (time.perf_counter() - now)
+                spare = period - (time.perf_counter() - now)
                 if spare > 0:
-                    time.sleep(spare)  # the GIL is the worker's meanwhile
+                    self._pause(spare, software)  # the GIL and the cores are the worker's meanwhile
         finally:
             sys.setswitchinterval(switch)
         return 0

@@ -141,3 +141,25 @@ def test_viewer_fps_runs_the_viewer_offscreen_without_a_display(tmp_path):
     assert line.startswith("viewer (offscreen) cafe") and "frames rendered/s" in line, r.stdout
     rendered = float(line.split("loop iterations/s, ")[1].split(" frames rendered/s")[0])
     assert rendered > 0, line
+
+
+def test_viewer_loop_leaves_a_cpu_rasterisers_cores_to_the_tracer():
+    """On a CPU rasteriser (llvmpipe here) the viewer's loop, whose panel and blit take CPU,
+    runs about SOFTWARE_UI_HZ times a second, or as often as frames are done where they come
+    faster: never much more often than both (it spun at 170-235 iterations/s before, for 13-60
+    frames/s). Offscreen (scripts/viewer_fps.py), arcade AO at 320x180."""
+    import os
+
+    from app.viewer import SOFTWARE_UI_HZ
+
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    env.update(N="150", PYTHONPATH=os.getcwd())
+    r = subprocess.run([sys.executable, "scripts/viewer_fps.py", "arcade", "--pass", "ao", "--size", "320x180"],
+                       capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr
+    line = r.stdout.strip().splitlines()[-1]
+    if "llvmpipe" not in line:
+        pytest.skip(f"not a CPU rasteriser: {line}")
+    loop = float(line.split(": ")[1].split(" loop iterations/s")[0])
+    frames = float(line.split("loop iterations/s, ")[1].split(" frames rendered/s")[0])
+    assert frames > 0 and loop <= 1.25 * max(SOFTWARE_UI_HZ, frames) + 5, line
