@@ -127,19 +127,28 @@ def test_view_compare_option_is_checked(display):
         assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 
-def test_viewer_fps_runs_the_viewer_offscreen_without_a_display(tmp_path):
-    """scripts/viewer_fps.py without $DISPLAY (as on the lent GPU machine): the viewer's own frame
-    loop in an EGL context, its panel drawn, frames rendered and a rate printed."""
+def _viewer_fps_offscreen(iterations: int, *args: str) -> tuple[str, str, float, float]:
+    """scripts/viewer_fps.py run for `iterations` loop iterations without $DISPLAY: its output,
+    its last line, the UI loop's iterations a second and the frames rendered a second."""
     import os
 
     env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
-    env.update(N="12", PYTHONPATH=os.getcwd())
-    r = subprocess.run([sys.executable, "scripts/viewer_fps.py", "cafe", "--pass", "forward", "--size", "96x54"],
-                       capture_output=True, text=True, timeout=600, env=env)
+    env.update(N=str(iterations), PYTHONPATH=os.getcwd())
+    r = subprocess.run([sys.executable, "scripts/viewer_fps.py", *args], capture_output=True, text=True, timeout=600,
+                       env=env)
     assert r.returncode == 0, r.stderr
     line = r.stdout.strip().splitlines()[-1]
-    assert line.startswith("viewer (offscreen) cafe") and "frames rendered/s" in line, r.stdout
-    rendered = float(line.split("loop iterations/s, ")[1].split(" frames rendered/s")[0])
+    assert "frames rendered/s" in line, r.stdout
+    loop = float(line.split(": ")[1].split(" loop iterations/s")[0])
+    frames = float(line.split("loop iterations/s, ")[1].split(" frames rendered/s")[0])
+    return r.stdout, line, loop, frames
+
+
+def test_viewer_fps_runs_the_viewer_offscreen_without_a_display(tmp_path):
+    """scripts/viewer_fps.py without $DISPLAY (as on the lent GPU machine): the viewer's own frame
+    loop in an EGL context, its panel drawn, frames rendered and a rate printed."""
+    out, line, _, rendered = _viewer_fps_offscreen(12, "cafe", "--pass", "forward", "--size", "96x54")
+    assert line.startswith("viewer (offscreen) cafe") and "frames rendered/s" in line, out
     assert rendered > 0, line
 
 
@@ -148,18 +157,9 @@ def test_viewer_loop_leaves_a_cpu_rasterisers_cores_to_the_tracer():
     runs about SOFTWARE_UI_HZ times a second, or as often as frames are done where they come
     faster: never much more often than both (it spun at 170-235 iterations/s before, for 13-60
     frames/s). Offscreen (scripts/viewer_fps.py), arcade AO at 320x180."""
-    import os
-
     from app.viewer import SOFTWARE_UI_HZ
 
-    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
-    env.update(N="150", PYTHONPATH=os.getcwd())
-    r = subprocess.run([sys.executable, "scripts/viewer_fps.py", "arcade", "--pass", "ao", "--size", "320x180"],
-                       capture_output=True, text=True, timeout=600, env=env)
-    assert r.returncode == 0, r.stderr
-    line = r.stdout.strip().splitlines()[-1]
+    _, line, loop, frames = _viewer_fps_offscreen(150, "arcade", "--pass", "ao", "--size", "320x180")
     if "llvmpipe" not in line:
         pytest.skip(f"not a CPU rasteriser: {line}")
-    loop = float(line.split(": ")[1].split(" loop iterations/s")[0])
-    frames = float(line.split("loop iterations/s, ")[1].split(" frames rendered/s")[0])
     assert frames > 0 and loop <= 1.25 * max(SOFTWARE_UI_HZ, frames) + 5, line
